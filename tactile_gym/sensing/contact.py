@@ -1,0 +1,643 @@
+"""Intrinsic contact sensing: contact point, normal, friction moment and edge direction.
+
+From one wrench measured by the fingertip's 6-axis force/torque sensor this module recovers
+where the object touches the skin (Bicchi's intrinsic contact sensing), the friction moment
+split as in Matsuo et al. (2010), eq. 12-14, the direction of the object's edge with its
+predicted error, and the indentation of the skin.
+
+Conventions (DESIGN.md section 4):
+
+* SI units: metres, newtons, newton-metres, radians. Stiffness in N/m^3 (Winkler modulus).
+* Every point, direction, force and moment taken or returned here is in the **sensor frame**:
+  origin at the F/T sensor, z along the finger axis, hemisphere centre at (0, 0, L) with
+  L = ``FingertipGeometry.cylinder_length``.
+* ``force`` f is the force the object applies to the fingertip; ``moment`` m is the moment of
+  that load about the sensor origin. A contact at r that transmits f and a friction moment q
+  gives m = r x f + q (eq. 11-12). Where f pushes into the skin, f . n < 0 for the outward
+  normal n.
+* The skin's outer surface is the hemisphere (z >= L) plus the cylinder side (0 <= z <= L),
+  both of radius R = ``FingertipGeometry.outer_radius``.
+
+NumPy only; no pybullet or torch, so real robots can reuse it. The per-call work is done on
+Python floats because NumPy's per-call overhead dominates on 3-vectors.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from tactile_gym.sensing.geometry import FingertipGeometry
+
+__all__ = [
+    "CONTACT_SHAPES",
+    "CONTACT_MODELS",
+    "EDGE_STD_UNOBSERVABLE",
+    "ContactEstimate",
+    "edge_from_trace",
+    "estimate_contact",
+    "indentation_depth",
+]
+
+CONTACT_MODELS = ("soft", "hard")
+CONTACT_SHAPES = ("edge", "plane")
+EDGE_STD_UNOBSERVABLE = math.pi / 2  # rad; "no information" about an undirected line
+
+_DEFAULT_GEOMETRY = FingertipGeometry()
+_REGION_TOL = 1e-9  # m; slack on the piece boundaries (seam at z = L, rim at z = 0)
+_NAN3 = (math.nan, math.nan, math.nan)
+
+
+def _nan3() -> np.ndarray:
+    return np.full(3, np.nan)
+
+
+@dataclass(frozen=True)
+class ContactEstimate:
+    """One contact estimated from one wrench. All vectors in the sensor frame.
+
+    Attributes:
+        valid: whether a contact was found.
+        reason: why not, "" when valid.
+        point: (3,) contact point r on the outer skin surface, m; NaN when invalid.
+        normal: (3,) outward unit surface normal n at r; NaN when invalid.
+        force: (3,) the measured force f, N (always the input).
+        normal_moment: (3,) q_n = (q . n) n with q = m - r x f (eq. 12), N m.
+        tangential_moment: (3,) q_t = q - q_n (eq. 14), N m.
+        edge_direction: (3,) unit edge direction e, or NaN when unobservable. See
+            ``estimate_contact`` for how it relates to the paper's n x q_t and its sign.
+        edge_std: predicted 1-sigma (RMS) angle error of e, rad;
+            ``EDGE_STD_UNOBSERVABLE`` (pi/2) when e carries no information.
+        corrected_point: (3,) indentation-corrected contact point r - delta n, m; NaN when
+            no skin stiffness was given or the estimate is invalid.
+        indentation: modelled indentation depth delta, m; NaN when not computed.
+        on_surface: False when the line of action missed the skin and the surface point
+            closest to it was used instead (the estimate is still valid, but flagged).
+        tilt: angle between f and -n, rad; NaN when invalid.
+    """
+
+    valid: bool
+    reason: str
+    point: np.ndarray
+    normal: np.ndarray
+    force: np.ndarray
+    normal_moment: np.ndarray
+    tangential_moment: np.ndarray
+    edge_direction: np.ndarray
+    edge_std: float
+    corrected_point: np.ndarray
+    indentation: float
+    on_surface: bool
+    tilt: float
+
+    @classmethod
+    def invalid(cls, force: np.ndarray, reason: str) -> ContactEstimate:
+        """An estimate that found no contact.
+
+        Args:
+            force: (3,) the measured force, sensor frame, N.
+            reason: why no contact was found; must not be empty.
+        """
+        if not reason:
+            raise ValueError("reason must describe why the estimate is invalid, got ''")
+        return cls(
+            valid=False,
+            reason=reason,
+            point=_nan3(),
+            normal=_nan3(),
+            force=np.array(force, dtype=float),
+            normal_moment=_nan3(),
+            tangential_moment=_nan3(),
+            edge_direction=_nan3(),
+            edge_std=EDGE_STD_UNOBSERVABLE,
+            corrected_point=_nan3(),
+            indentation=math.nan,
+            on_surface=False,
+            tilt=math.nan,
+        )
+
+
+def _vec3(value, name: str) -> tuple[float, float, float]:
+    a = np.asarray(value, dtype=float)
+    if a.shape != (3,):
+        raise ValueError(f"{name} must have shape (3,), got {a.shape}")
+    x, y, z = a.tolist()
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        raise ValueError(f"{name} must be finite, got {a.tolist()}")
+    return x, y, z
+
+
+def _nonneg(value: float, name: str, unit: str) -> float:
+    v = float(value)
+    if not math.isfinite(v) or v < 0.0:
+        raise ValueError(f"{name} must be a finite number >= 0 {unit}, got {value!r}")
+    return v
+
+
+def _cross(a, b):
+    return (
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    )
+
+
+def _dot(a, b) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _sphere_soft(f, u, fnorm, m, radius, length):
+    """Soft-finger solutions on the full sphere: [(n, sigma, pushes)].
+
+    With n = (r - c)/R and m' = m - c x f the condition m - r x f = sigma n reads
+    m' = R n x f + sigma n. Split n = a u + n_perp (u = f/|f|). Along u: m'.u = sigma a.
+    Across u, J = (u x .) is a quarter turn, so m'_perp = (sigma - R|f| J) n_perp and
+    |m'_perp|^2 = (sigma^2 + R^2|f|^2)(1 - a^2). Eliminating sigma = k/a (k = m'.u) gives a
+    quadratic in s = a^2, F^2 s^2 + (k^2 + P - F^2) s - k^2 = 0 (F = R|f|, P = |m'_perp|^2),
+    whose roots have product -k^2/F^2 <= 0: exactly one root lies in [0, 1] (g(0) <= 0 <=
+    g(1) = P). a = -sqrt(s) pushes into the skin, a = +sqrt(s) pulls. Then
+    n_perp = (sigma m'_perp + F u x m'_perp) / (sigma^2 + F^2).
+    """
+    mp = (m[0] + length * f[1], m[1] - length * f[0], m[2])  # m - c x f, c = (0, 0, L)
+    k = _dot(mp, u)
+    mperp = (mp[0] - k * u[0], mp[1] - k * u[1], mp[2] - k * u[2])
+    p2 = _dot(mperp, mperp)
+    big_f = radius * fnorm
+    f2 = big_f * big_f
+    b = k * k + p2 - f2
+    disc = math.sqrt(b * b + 4.0 * f2 * k * k)
+    # Pick the cancellation-free form of the non-negative root.
+    s = 2.0 * k * k / (b + disc) if b > 0.0 else (disc - b) / (2.0 * f2)
+    s = min(max(s, 0.0), 1.0)
+    if s < 1e-24:  # force tangent to the sphere: neither pushes nor pulls
+        return []
+    ux_m = _cross(u, mperp)
+    out = []
+    for a in (-math.sqrt(s), math.sqrt(s)):
+        sigma = k / a
+        den = sigma * sigma + f2
+        n = (
+            a * u[0] + (sigma * mperp[0] + big_f * ux_m[0]) / den,
+            a * u[1] + (sigma * mperp[1] + big_f * ux_m[1]) / den,
+            a * u[2] + (sigma * mperp[2] + big_f * ux_m[2]) / den,
+        )
+        nn = math.sqrt(_dot(n, n))
+        n = (n[0] / nn, n[1] / nn, n[2] / nn)
+        out.append((n, sigma, a < 0.0))
+    return out
+
+
+def _cylinder_soft(f, m, radius):
+    """Soft-finger solutions on the infinite cylinder: [(r, n, sigma, pushes)].
+
+    With n = (cos t, sin t, 0) and r = R n + z e_z, the z row of m - r x f = sigma n gives
+    R h sin(phi - t) = m_z (h = |f_xy|, phi its azimuth); cos(phi - t) < 0 pushes. The row
+    along e_z x n gives z = (m . (e_z x n) + R f_z) / (f . n), and sigma = m . n + z m_z / R.
+    """
+    h = math.hypot(f[0], f[1])
+    if h < 1e-12:
+        return []
+    sin_psi = m[2] / (radius * h)
+    if abs(sin_psi) > 1.0:
+        return []
+    cos_abs = math.sqrt(1.0 - sin_psi * sin_psi)
+    if cos_abs < 1e-12:
+        return []
+    cphi, sphi = f[0] / h, f[1] / h
+    out = []
+    for cos_psi in (-cos_abs, cos_abs):
+        nx = cphi * cos_psi + sphi * sin_psi
+        ny = sphi * cos_psi - cphi * sin_psi
+        fn = f[0] * nx + f[1] * ny
+        z = (-m[0] * ny + m[1] * nx + radius * f[2]) / fn
+        sigma = m[0] * nx + m[1] * ny + z * m[2] / radius
+        out.append(((radius * nx, radius * ny, z), (nx, ny, 0.0), sigma, cos_psi < 0.0))
+    return out
+
+
+def _sphere_hard(r0, u, radius, length):
+    """Line r0 + t u against the full sphere: [(r, n, pushes)] (entry pushes)."""
+    d = (r0[0], r0[1], r0[2] - length)
+    beta = _dot(d, u)
+    disc = beta * beta - (_dot(d, d) - radius * radius)
+    if disc < 0.0:
+        return []
+    sq = math.sqrt(disc)
+    out = []
+    for t, pushes in ((-beta - sq, True), (-beta + sq, False)):
+        r = (r0[0] + t * u[0], r0[1] + t * u[1], r0[2] + t * u[2])
+        n = (r[0] / radius, r[1] / radius, (r[2] - length) / radius)
+        out.append((r, n, pushes))
+    return out
+
+
+def _cylinder_hard(r0, u, radius):
+    """Line r0 + t u against the infinite cylinder: [(r, n, pushes)] (entry pushes)."""
+    a = u[0] * u[0] + u[1] * u[1]
+    if a < 1e-24:
+        return []
+    b = r0[0] * u[0] + r0[1] * u[1]
+    disc = b * b - a * (r0[0] * r0[0] + r0[1] * r0[1] - radius * radius)
+    if disc < 0.0:
+        return []
+    sq = math.sqrt(disc)
+    out = []
+    for t, pushes in ((-(b + sq) / a, True), ((sq - b) / a, False)):
+        r = (r0[0] + t * u[0], r0[1] + t * u[1], r0[2] + t * u[2])
+        rho = math.hypot(r[0], r[1])
+        out.append((r, (r[0] / rho, r[1] / rho, 0.0), pushes))
+    return out
+
+
+def _radially_out(s, v, radius):
+    """Skin point at distance R from the axis point (0, 0, s) in the direction of v.
+
+    The skin (z >= 0) is the set of points at distance R from the segment
+    S = {s e_z, 0 <= s <= L}; below the rim (z < 0) is the sensor body, so from s = 0 only
+    horizontal directions lead to skin.
+    """
+    if s <= 0.0 and v[2] < 0.0:
+        v = (v[0], v[1], 0.0)
+    nv = math.sqrt(_dot(v, v))
+    n = (1.0, 0.0, 0.0) if nv < 1e-15 else (v[0] / nv, v[1] / nv, v[2] / nv)
+    return (radius * n[0], radius * n[1], s + radius * n[2]), n
+
+
+def _project_to_skin(p, radius, length):
+    """Skin point closest to the point p, its normal and the distance, m."""
+    s = min(max(p[2], 0.0), length)
+    r, n = _radially_out(s, (p[0], p[1], p[2] - s), radius)
+    w = (r[0] - p[0], r[1] - p[1], r[2] - p[2])
+    return r, n, math.sqrt(_dot(w, w))
+
+
+def _closest_to_line(r0, u, radius, length):
+    """Skin point closest to the line r0 + t u, its normal and its distance to the line, m.
+
+    It lies radially out from the point of S closest to the line; since r0 is perpendicular
+    to u, that point is s = r0_z / (1 - u_z^2), clamped to [0, L].
+    """
+    g2 = 1.0 - u[2] * u[2]
+    s = length if g2 < 1e-12 else min(max(r0[2] / g2, 0.0), length)
+    v = (r0[0] + s * u[2] * u[0], r0[1] + s * u[2] * u[1], r0[2] + s * (u[2] * u[2] - 1.0))
+    r, n = _radially_out(s, v, radius)
+    w = (r[0] - r0[0], r[1] - r0[1], r[2] - r0[2])
+    t = _dot(w, u)
+    return r, n, math.sqrt(max(_dot(w, w) - t * t, 0.0))
+
+
+def indentation_depth(
+    normal_force, skin_stiffness: float, radius: float, contact_shape: str = "edge"
+):
+    """Indentation depth of a Winkler (elastic-foundation) skin of the given curvature.
+
+    The skin is a bed of independent springs: pressure = ``skin_stiffness`` x local
+    penetration. Near the contact the skin is the paraboloid z = (x^2 + y^2) / (2 R).
+
+    * ``"plane"``: a rigid plane pushed delta into it,
+      F = k_n integral (delta - rho^2/(2R))_+ dA = k_n pi R delta^2.
+    * ``"edge"``: a rigid 90-degree wedge whose ridge line (along y) is tangent to the skin,
+      pressed symmetrically; its faces have slope 1, so the penetration is
+      (delta - |x| - y^2/(2R))_+ (the x^2/(2R) term is dropped since |x| <= delta << R).
+      Integrating over x gives (delta - y^2/(2R))^2, then over y,
+      F = k_n (16/15) sqrt(2R) delta^(5/2).
+
+    Args:
+        normal_force: normal load on the skin, N; float or array, >= 0.
+        skin_stiffness: Winkler modulus k_n, N/m^3; > 0 (e.g. E/h = 8.8e7).
+        radius: radius of curvature of the skin, m; > 0.
+        contact_shape: one of ``CONTACT_SHAPES``.
+
+    Returns:
+        delta, m: a float for a scalar ``normal_force``, else an array of its shape.
+    """
+    if contact_shape not in CONTACT_SHAPES:
+        raise ValueError(f"contact_shape must be one of {CONTACT_SHAPES}, got {contact_shape!r}")
+    k = float(skin_stiffness)
+    if not math.isfinite(k) or k <= 0.0:
+        raise ValueError(f"skin_stiffness must be a finite number > 0 N/m^3, got {k!r}")
+    rad = float(radius)
+    if not math.isfinite(rad) or rad <= 0.0:
+        raise ValueError(f"radius must be a finite number > 0 m, got {rad!r}")
+    load = np.asarray(normal_force, dtype=float)
+    if not np.all(np.isfinite(load)) or np.any(load < 0.0):
+        raise ValueError(f"normal_force must be finite and >= 0 N, got {normal_force!r}")
+    if load.ndim == 0:
+        return _depth(float(load), k, rad, contact_shape)
+    if contact_shape == "plane":
+        return np.sqrt(load / (k * math.pi * rad))
+    return (load / (k * (16.0 / 15.0) * math.sqrt(2.0 * rad))) ** 0.4
+
+
+def _depth(load: float, k: float, rad: float, contact_shape: str) -> float:
+    """``indentation_depth`` for checked scalar input, on floats (the per-call fast path)."""
+    if contact_shape == "plane":
+        return math.sqrt(load / (k * math.pi * rad))
+    return (load / (k * (16.0 / 15.0) * math.sqrt(2.0 * rad))) ** 0.4
+
+
+def _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m) -> float:
+    """First-order RMS angle error of e = normalise(n x f) under isotropic sensor noise.
+
+    Let g = n x e (= -f_t/|f_t|). Perturbing the wrench by (df, dm) moves r by
+    dr = a e + b g with h = dm - r x df and (i) soft: a = -h.g/f_n, b = h.e/f_n;
+    (ii) hard: a = -(f_n h.g + |f_t| h.n)/|f|^2, b = h.e/f_n. The normal turns by
+    dn.e = dr.k with k = K e (K the shape operator: I/R on the sphere, t t^T/R on the
+    cylinder, t = e_z x n), so dn.e = h.P with P = (e.k) alpha + (g.k) e/f_n, where h.alpha = a.
+    e then turns in the tangent plane by (df.e - f_n dn.e)/|f_t| and out of it by -dn.e;
+    with h.P = dm.P - df.(P x r) the two variances are
+    (sigma_f^2 |e + f_n P x r|^2 + sigma_m^2 f_n^2 |P|^2)/|f_t|^2 and
+    sigma_f^2 |P x r|^2 + sigma_m^2 |P|^2.
+    For a press on the hemisphere's top this is ~ (sigma_f + sigma_m/R)/(|f| sin tilt), the
+    DESIGN.md 2.1 estimate, with the lever |r| of the sensor origin folded in.
+    """
+    g = _cross(n, e)
+    if on_sphere:
+        ek, gk = 1.0 / radius, 0.0
+    else:
+        t = (-n[1], n[0], 0.0)
+        te = _dot(t, e)
+        ek = te * te / radius
+        gk = te * _dot(t, g) / radius
+    if model == "soft":
+        alpha = (-g[0] / fn, -g[1] / fn, -g[2] / fn)
+    else:
+        f2 = _dot(f, f)
+        alpha = (
+            -(fn * g[0] + ft * n[0]) / f2,
+            -(fn * g[1] + ft * n[1]) / f2,
+            -(fn * g[2] + ft * n[2]) / f2,
+        )
+    gkf = gk / fn
+    p = (ek * alpha[0] + gkf * e[0], ek * alpha[1] + gkf * e[1], ek * alpha[2] + gkf * e[2])
+    pxr = _cross(p, r)
+    a_g = (e[0] + fn * pxr[0], e[1] + fn * pxr[1], e[2] + fn * pxr[2])
+    p2 = _dot(p, p)
+    var_g = (sigma_f * sigma_f * _dot(a_g, a_g) + sigma_m * sigma_m * fn * fn * p2) / (ft * ft)
+    var_n = sigma_f * sigma_f * _dot(pxr, pxr) + sigma_m * sigma_m * p2
+    return math.sqrt(var_g + var_n)
+
+
+def estimate_contact(
+    force,
+    moment,
+    geometry: FingertipGeometry = _DEFAULT_GEOMETRY,
+    *,
+    model: str = "soft",
+    force_threshold: float = 0.2,
+    force_noise_std: float = 0.02,
+    moment_noise_std: float = 5e-4,
+    skin_stiffness: float | None = None,
+    contact_shape: str = "edge",
+    previous_edge=None,
+) -> ContactEstimate:
+    """Contact point, normal, friction moment and edge direction from one wrench.
+
+    **Contact point** (Bicchi's intrinsic contact sensing), solved on each piece of the skin
+    (hemisphere z >= L, cylinder side 0 <= z <= L) in closed form:
+
+    * ``model="hard"``: r lies on the wrench's line of action r0 + t f/|f|,
+      r0 = f x m / |f|^2; q = m - r x f is then pitch * f.
+    * ``model="soft"``: the contact may also transmit a torsion about the normal, so r is
+      where m - r x f is parallel to n(r) (q_t = 0 by construction). On the sphere this
+      reduces to a quadratic in (n . f/|f|)^2, on the cylinder to sin(azimuth) = m_z/(R|f_xy|)
+      plus a linear equation for z (see ``_sphere_soft``, ``_cylinder_soft``).
+
+    Of the solutions, the one inside its piece where f pushes into the skin (f . n < 0) is kept;
+    if both pieces give one (soft model only), the one with the smaller torsion |q . n|.
+    Otherwise the line of action missed the skin, and the fallback is the nearest of: a
+    pushing solution just outside its piece (e.g. below the rim z = 0) moved onto the skin,
+    and, when no pulling solution lies on the skin, the skin point closest to the line. If it
+    is within the noise tolerance 3 (sigma_m + (L + R) sigma_f)/|f|, it is used with
+    ``on_surface=False``; if not, the estimate is invalid: "force pulls out of the skin" when
+    a pulling solution lies on the skin, else "line of action misses surface". A wrench cannot
+    tell a pull at r from a push along the same line where it enters the far side of the
+    finger, so a pull is reported only when that entry is not on the skin.
+
+    **Edge direction.** With r on the line of action, q = pitch * f, so the paper's
+    q_t = pitch * f_t and its n x q_t = pitch * (n x f_t). This function returns
+    e = normalise(n x f_t) (= normalise(n x f)), which equals sign(pitch) times the paper's
+    normalise(n x q_t) for the hard model and stays defined when the pitch is ~0 and for the
+    soft model (where q_t = 0). e lies in the tangent plane, perpendicular to the plane that
+    holds n and f: a force tilted away from -n across an edge reveals the edge. Sign: if
+    ``previous_edge`` is given, e is flipped to have e . previous_edge >= 0 (continuity);
+    otherwise its component of largest magnitude is made positive (ties: the first).
+    ``edge_std`` is the first-order RMS angle error under isotropic Gaussian sensor noise
+    (see ``_edge_std``), about (sigma_f + sigma_m/R)/(|f| sin tilt). When it reaches
+    ``EDGE_STD_UNOBSERVABLE`` (pi/2) - an untilted press - e is NaN and edge_std is pi/2.
+
+    **Indentation** (DESIGN.md 2.6): with ``skin_stiffness`` given,
+    delta = ``indentation_depth(-f . n, skin_stiffness, R, contact_shape)`` capped at the skin
+    thickness (the shell is rigid), and corrected_point = r - delta n. The sphere formula is
+    used on the cylinder too, an approximation there.
+
+    Args:
+        force: (3,) force f the object applies to the fingertip, sensor frame, N.
+        moment: (3,) moment m of that load about the sensor origin, sensor frame, N m.
+        geometry: the fingertip.
+        model: one of ``CONTACT_MODELS``.
+        force_threshold: below this |f|, N, there is no contact.
+        force_noise_std: sensor force noise per axis, N (for edge_std and the miss tolerance).
+        moment_noise_std: sensor moment noise per axis, N m.
+        skin_stiffness: Winkler modulus k_n, N/m^3, to model the indentation; None skips it.
+        contact_shape: object shape for the indentation model, one of ``CONTACT_SHAPES``.
+        previous_edge: (3,) last edge direction, sensor frame, to fix the sign of e.
+
+    Returns:
+        A ContactEstimate, valid or not (never raises for physically odd wrenches).
+
+    Raises:
+        ValueError: bad shapes, non-finite input, unknown model or shape, negative parameters.
+    """
+    f = _vec3(force, "force")
+    m = _vec3(moment, "moment")
+    if model not in CONTACT_MODELS:
+        raise ValueError(f"model must be one of {CONTACT_MODELS}, got {model!r}")
+    if contact_shape not in CONTACT_SHAPES:
+        raise ValueError(f"contact_shape must be one of {CONTACT_SHAPES}, got {contact_shape!r}")
+    threshold = _nonneg(force_threshold, "force_threshold", "N")
+    sigma_f = _nonneg(force_noise_std, "force_noise_std", "N")
+    sigma_m = _nonneg(moment_noise_std, "moment_noise_std", "N m")
+    if skin_stiffness is not None:
+        k_n = float(skin_stiffness)
+        if not math.isfinite(k_n) or k_n <= 0.0:
+            raise ValueError(
+                f"skin_stiffness must be a finite number > 0 N/m^3 or None, got {skin_stiffness!r}"
+            )
+    prev = None if previous_edge is None else _vec3(previous_edge, "previous_edge")
+
+    fnorm = math.sqrt(_dot(f, f))
+    if fnorm < threshold or fnorm == 0.0:
+        return ContactEstimate.invalid(f, f"force below threshold ({fnorm:.4g} N < {threshold} N)")
+    radius = geometry.outer_radius
+    length = geometry.cylinder_length
+    u = (f[0] / fnorm, f[1] / fnorm, f[2] / fnorm)
+    r0 = _cross(f, m)
+    r0 = (r0[0] / (fnorm * fnorm), r0[1] / (fnorm * fnorm), r0[2] / (fnorm * fnorm))
+
+    # Classify each piece's solutions: pushing and inside the piece (the answer), pushing
+    # but just outside it (sensor noise near the rim), or pulling and inside it.
+    best = None  # (|sigma|, r, n, on_sphere)
+    outside = []  # pushing solutions outside their piece
+    pulls = False
+    if model == "soft":
+        for n, sigma, pushes in _sphere_soft(f, u, fnorm, m, radius, length):
+            r = (radius * n[0], radius * n[1], length + radius * n[2])
+            if n[2] * radius >= -_REGION_TOL:
+                if pushes:
+                    best = (abs(sigma), r, n, True)
+                else:
+                    pulls = True
+            elif pushes:
+                outside.append(r)
+        for r, n, sigma, pushes in _cylinder_soft(f, m, radius):
+            if -_REGION_TOL <= r[2] <= length + _REGION_TOL:
+                if pushes:
+                    if best is None or abs(sigma) < best[0]:
+                        best = (abs(sigma), r, n, False)
+                else:
+                    pulls = True
+            elif pushes:
+                outside.append(r)
+    else:
+        for r, n, pushes in _sphere_hard(r0, u, radius, length):
+            if r[2] >= length - _REGION_TOL:
+                if pushes:
+                    best = (0.0, r, n, True)
+                else:
+                    pulls = True
+            elif pushes:
+                outside.append(r)
+        if best is None:
+            for r, n, pushes in _cylinder_hard(r0, u, radius):
+                if -_REGION_TOL <= r[2] <= length + _REGION_TOL:
+                    if pushes:
+                        best = (0.0, r, n, False)
+                    else:
+                        pulls = True
+                elif pushes:
+                    outside.append(r)
+
+    on_surface = True
+    if best is not None:
+        _, r, n, on_sphere = best
+    else:
+        # Fallbacks: a pushing solution just off the skin, moved onto it; or, when the line
+        # of action touches no skin at all, the skin point closest to it. A pulling solution
+        # on the skin beats a pushing one farther off than the noise allows.
+        fallbacks = [_project_to_skin(p, radius, length) for p in outside]
+        if not pulls:
+            fallbacks.append(_closest_to_line(r0, u, radius, length))
+        tol = 3.0 * (sigma_m + (length + radius) * sigma_f) / fnorm
+        r, n, dist = min(fallbacks, key=lambda c: c[2])
+        if dist > tol:
+            if pulls:
+                return ContactEstimate.invalid(f, "force pulls out of the skin (f . n > 0)")
+            return ContactEstimate.invalid(
+                f, f"line of action misses surface by {dist:.3g} m (tolerance {tol:.3g} m)"
+            )
+        on_surface = False
+        on_sphere = r[2] >= length
+
+    # Friction moment, eq. 12-14.
+    rxf = _cross(r, f)
+    q = (m[0] - rxf[0], m[1] - rxf[1], m[2] - rxf[2])
+    qn = _dot(q, n)
+    q_n = (qn * n[0], qn * n[1], qn * n[2])
+    q_t = (q[0] - q_n[0], q[1] - q_n[1], q[2] - q_n[2])
+
+    fn = _dot(f, n)
+    ftv = (f[0] - fn * n[0], f[1] - fn * n[1], f[2] - fn * n[2])
+    ft = math.sqrt(_dot(ftv, ftv))
+    tilt = math.atan2(ft, -fn)
+
+    edge = _NAN3
+    edge_std = EDGE_STD_UNOBSERVABLE
+    if ft > 1e-12 * fnorm and abs(fn) > 1e-12 * fnorm:
+        ev = _cross(n, ftv)
+        e = (ev[0] / ft, ev[1] / ft, ev[2] / ft)
+        std = _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m)
+        if std < EDGE_STD_UNOBSERVABLE:
+            edge_std = std
+            if prev is not None and _dot(e, prev) != 0.0:
+                flip = _dot(e, prev) < 0.0
+            else:
+                ax = (abs(e[0]), abs(e[1]), abs(e[2]))
+                flip = e[ax.index(max(ax))] < 0.0
+            edge = (-e[0], -e[1], -e[2]) if flip else e
+
+    corrected = _NAN3
+    delta = math.nan
+    if skin_stiffness is not None:
+        delta = min(
+            _depth(max(-fn, 0.0), k_n, radius, contact_shape),
+            geometry.skin_thickness,
+        )
+        corrected = (r[0] - delta * n[0], r[1] - delta * n[1], r[2] - delta * n[2])
+
+    return ContactEstimate(
+        valid=True,
+        reason="",
+        point=np.array(r),
+        normal=np.array(n),
+        force=np.array(f),
+        normal_moment=np.array(q_n),
+        tangential_moment=np.array(q_t),
+        edge_direction=np.array(edge),
+        edge_std=edge_std,
+        corrected_point=np.array(corrected),
+        indentation=delta,
+        on_surface=on_surface,
+        tilt=tilt,
+    )
+
+
+def edge_from_trace(points, point_std: float = 0.0005) -> tuple[np.ndarray, float]:
+    """Edge direction from contact points collected while sliding along the edge.
+
+    Fits a line through the points by their principal direction (SVD of the centred points).
+    With the points spread over positions s_i along the line and independent noise of std
+    sigma in each of the two perpendicular directions, the slope in each direction has
+    variance sigma^2 / sum (s_i - s_mean)^2, so the RMS angle error is
+    sqrt(2) sigma / sqrt(sum (s_i - s_mean)^2). sigma is the larger of ``point_std`` and the
+    residual estimate sqrt(sum |perpendicular residual|^2 / (2 (N - 2))) (N > 2), so a curved
+    or jumpy trace reports a larger error.
+
+    Args:
+        points: (N, 3) successive contact points, any one frame (e.g. world or sensor), m.
+        point_std: 1-sigma noise of each point per axis, m; >= 0.
+
+    Returns:
+        (direction, std): the unit direction (3,), oriented from the first point towards the
+        last, and its 1-sigma angle error, rad. With fewer than 2 points or a trace whose
+        length along the line is at most ``point_std``, the direction is NaN and std is pi/2.
+
+    Raises:
+        ValueError: points not (N, 3) or not finite; point_std negative or not finite.
+    """
+    p = np.asarray(points, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise ValueError(f"points must have shape (N, 3), got {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError("points must be finite")
+    sigma = _nonneg(point_std, "point_std", "m")
+    unobservable = (np.full(3, np.nan), EDGE_STD_UNOBSERVABLE)
+    n_pts = len(p)
+    if n_pts < 2:
+        return unobservable
+    centred = p - p.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    direction = vt[0]
+    s = centred @ direction
+    if float(s.max() - s.min()) <= max(sigma, 1e-12):
+        return unobservable
+    spread = float(np.sqrt(np.sum(s**2)))
+    if float(np.dot(p[-1] - p[0], direction)) < 0.0:
+        direction = -direction
+    if n_pts > 2:
+        resid2 = float(np.sum(centred**2) - spread**2)
+        sigma = max(sigma, math.sqrt(max(resid2, 0.0) / (2.0 * (n_pts - 2))))
+    std = min(math.sqrt(2.0) * sigma / spread, EDGE_STD_UNOBSERVABLE)
+    return direction, std
