@@ -1,0 +1,249 @@
+"""Hinged two-link objects built in a :class:`~tactile_gym.sim.world.World`.
+
+Frames (see :class:`~tactile_gym.sim.config.ObjectConfig`):
+
+* world: z up, table top at z = 0;
+* hinge frame H: origin at the pin centre, z_H along the joint axis, x_H where the free link
+  points at joint angle 0; fixed in the world (the fixed link's frame);
+* free-link frame: H turned by the joint angle about z_H.
+
+The object is one PyBullet multibody built with ``createMultiBody`` (no URDF file, and no
+``createCollisionShapeArray``, which silently keeps only 16 children): a static base (the
+fixed link, mass 0) and one revolute child (the free link). PyBullet collisions of the object
+are switched off: the skin computes contact itself, and link-on-table friction would be an
+uncontrolled second source of joint friction. The joint's holding friction is a
+zero-velocity motor with a small max force (DESIGN 2.4) plus viscous damping.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as p
+
+from tactile_gym.sim.config import ObjectConfig
+from tactile_gym.sim.primitives import RoundedBox
+from tactile_gym.sim.world import World
+
+__all__ = ["HingedObject", "matrix_to_quaternion", "quaternion_to_matrix"]
+
+FREE_BODY = 0
+FIXED_BODY = 1
+TABLE_BODY = 2
+
+
+def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
+    """3x3 rotation of a unit quaternion (x, y, z, w)."""
+    x, y, z, w = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def matrix_to_quaternion(r: np.ndarray) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) of a 3x3 rotation, with w >= 0."""
+    m = np.asarray(r, dtype=float)
+    t = np.trace(m)
+    if t > 0:
+        s = 2.0 * np.sqrt(t + 1.0)
+        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, s / 4]
+    else:
+        i = int(np.argmax(np.diag(m)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * np.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
+        q = [0.0, 0.0, 0.0, (m[k, j] - m[j, k]) / s]
+        q[i] = s / 4
+        q[j] = (m[j, i] + m[i, j]) / s
+        q[k] = (m[k, i] + m[i, k]) / s
+    q = np.asarray(q)
+    q = q / np.linalg.norm(q)
+    return -q if q[3] < 0 else q
+
+
+def _rot_z(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+class HingedObject:
+    """Two links and one revolute joint, from an :class:`ObjectConfig`.
+
+    Args:
+        world: the world to build in.
+        config: geometry, joint and friction parameters.
+        joint_angle: initial joint angle, rad.
+    """
+
+    def __init__(self, world: World, config: ObjectConfig, joint_angle: float = 0.0) -> None:
+        self.world = world
+        self.config = config
+        self._cid = world.client_id
+        cid = self._cid
+        self.hinge_rotation = config.hinge_rotation()
+        self.pin = np.asarray(config.joint_position, dtype=float)
+        self.axis = self.hinge_rotation[:, 2].copy()
+        free = np.asarray(config.free_link_size, dtype=float)
+        fixed = np.asarray(config.fixed_link_size, dtype=float)
+        self.free_half = free / 2.0
+        self.fixed_half = fixed / 2.0
+        # Box centres in their link frames (origin at the pin).
+        self.free_center_local = np.array([free[0] / 2.0 - config.pin_overlap, 0.0, 0.0])
+        self.fixed_center_local = np.array([-(fixed[0] / 2.0 - config.pin_overlap), 0.0, 0.0])
+
+        def box(half: np.ndarray, center: np.ndarray, rgba: list[float]) -> tuple[int, int]:
+            col = p.createCollisionShape(
+                p.GEOM_BOX,
+                halfExtents=half.tolist(),
+                collisionFramePosition=center.tolist(),
+                physicsClientId=cid,
+            )
+            vis = p.createVisualShape(
+                p.GEOM_BOX,
+                halfExtents=half.tolist(),
+                visualFramePosition=center.tolist(),
+                rgbaColor=rgba,
+                physicsClientId=cid,
+            )
+            return col, vis
+
+        col_fixed, vis_fixed = box(self.fixed_half, self.fixed_center_local, [0.3, 0.3, 0.35, 1])
+        col_free, vis_free = box(self.free_half, self.free_center_local, [0.85, 0.25, 0.2, 1])
+        self.body_id = p.createMultiBody(
+            baseMass=0.0,
+            baseCollisionShapeIndex=col_fixed,
+            baseVisualShapeIndex=vis_fixed,
+            basePosition=self.pin.tolist(),
+            baseOrientation=matrix_to_quaternion(self.hinge_rotation).tolist(),
+            linkMasses=[config.free_link_mass],
+            linkCollisionShapeIndices=[col_free],
+            linkVisualShapeIndices=[vis_free],
+            linkPositions=[[0.0, 0.0, 0.0]],
+            linkOrientations=[[0.0, 0.0, 0.0, 1.0]],
+            linkInertialFramePositions=[self.free_center_local.tolist()],
+            linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]],
+            linkParentIndices=[0],
+            linkJointTypes=[p.JOINT_REVOLUTE],
+            linkJointAxis=[[0.0, 0.0, 1.0]],
+            physicsClientId=cid,
+        )
+        for link in (-1, 0):
+            p.setCollisionFilterGroupMask(self.body_id, link, 0, 0, physicsClientId=cid)
+        p.changeDynamics(
+            self.body_id,
+            0,
+            linearDamping=0.0,
+            angularDamping=0.0,
+            jointDamping=config.damping,
+            jointLowerLimit=config.lower_limit,
+            jointUpperLimit=config.upper_limit,
+            physicsClientId=cid,
+        )
+        p.setJointMotorControl2(
+            self.body_id,
+            0,
+            p.VELOCITY_CONTROL,
+            targetVelocity=0.0,
+            force=config.holding_torque,
+            physicsClientId=cid,
+        )
+        self.free_box = RoundedBox(
+            self.free_half,
+            config.edge_radius,
+            self.pin.copy(),
+            self.hinge_rotation.copy(),
+            body=FREE_BODY,
+        )
+        self.fixed_box = RoundedBox(
+            self.fixed_half,
+            config.edge_radius,
+            self.pin + self.hinge_rotation @ self.fixed_center_local,
+            self.hinge_rotation.copy(),
+            body=FIXED_BODY,
+        )
+        self._angle = 0.0
+        self._velocity = 0.0
+        self.reset(joint_angle)
+
+    # --- state -------------------------------------------------------------------------
+
+    def reset(self, joint_angle: float) -> None:
+        """Teleport the joint to ``joint_angle`` (rad) at rest."""
+        lo, hi = self.config.lower_limit, self.config.upper_limit
+        if not lo <= joint_angle <= hi:
+            raise ValueError(f"joint_angle must be in [{lo}, {hi}] rad, got {joint_angle!r}")
+        p.resetJointState(self.body_id, 0, float(joint_angle), 0.0, physicsClientId=self._cid)
+        self.sync()
+
+    def sync(self) -> None:
+        """Read the joint state from PyBullet and update the free link's primitive."""
+        self._angle, self._velocity = p.getJointState(self.body_id, 0, physicsClientId=self._cid)[
+            :2
+        ]
+        r = self.link_rotation
+        self.free_box.rotation = r
+        self.free_box.center = self.pin + r @ self.free_center_local
+
+    @property
+    def joint_angle(self) -> float:
+        """Joint angle, rad (0: free link along ``link_direction``)."""
+        return float(self._angle)
+
+    @property
+    def joint_velocity(self) -> float:
+        """Joint velocity, rad/s."""
+        return float(self._velocity)
+
+    @property
+    def link_rotation(self) -> np.ndarray:
+        """Free-link frame axes as columns, world frame."""
+        return self.hinge_rotation @ _rot_z(self._angle)
+
+    @property
+    def free_link_com(self) -> np.ndarray:
+        """Centre of mass of the free link, world frame, m."""
+        return self.free_box.center.copy()
+
+    @property
+    def true_axis(self) -> tuple[np.ndarray, np.ndarray]:
+        """(pin centre point, unit axis direction), world frame."""
+        return self.pin.copy(), self.axis.copy()
+
+    @property
+    def edge_line(self) -> tuple[np.ndarray, np.ndarray]:
+        """Probed edge of the free link: (point, unit direction), world frame.
+
+        The point is where the edge passes the pin's x_H = 0 plane; the line is the sharp
+        corner of the top (+z_H) face and the ``edge_side`` face, ignoring the rounding.
+        """
+        r = self.link_rotation
+        local = np.array([0.0, self.config.edge_side * self.free_half[1], self.free_half[2]])
+        return self.pin + r @ local, r[:, 0].copy()
+
+    @property
+    def primitives(self) -> list[RoundedBox]:
+        """The free and fixed links' rounded boxes, world frame (call ``sync`` first)."""
+        return [self.free_box, self.fixed_box]
+
+    def apply_wrench(self, force: np.ndarray, torque: np.ndarray) -> None:
+        """Apply a force at the free link's COM and a torque, both world frame, for one step.
+
+        PyBullet clears external forces after each ``stepSimulation``.
+        """
+        cid = self._cid
+        p.applyExternalForce(
+            self.body_id,
+            0,
+            force.tolist(),
+            self.free_box.center.tolist(),
+            p.WORLD_FRAME,
+            physicsClientId=cid,
+        )
+        p.applyExternalTorque(self.body_id, 0, torque.tolist(), p.WORLD_FRAME, physicsClientId=cid)
+
+    def remove(self) -> None:
+        """Remove the body from the world (if still connected)."""
+        if self.world.connected:
+            p.removeBody(self.body_id, physicsClientId=self._cid)

@@ -1,0 +1,122 @@
+"""A PyBullet world that owns its own physics client.
+
+Frames: world frame, z up, the table top is the plane z = 0. Units: SI.
+
+Each :class:`World` connects its own client (DIRECT unless ``gui=True``), so several worlds in
+one process never see each other's bodies. Hot-path calls go straight to ``pybullet`` with the
+client id: ``BulletClient.__getattr__`` builds a ``functools.partial`` on every call, which
+costs more than a ``stepSimulation`` of this small scene.
+"""
+
+from __future__ import annotations
+
+import pybullet as p
+from pybullet_utils.bullet_client import BulletClient
+
+__all__ = ["World"]
+
+
+class World:
+    """Physics client, time step, table and save/restore.
+
+    Args:
+        time_step: physics step, s.
+        substeps: physics steps per control step (used by the scene's controller).
+        gui: open the PyBullet GUI instead of a headless client.
+        gravity: gravity vector, world frame, m/s^2.
+    """
+
+    def __init__(
+        self,
+        time_step: float = 1.0 / 240.0,
+        substeps: int = 12,
+        gui: bool = False,
+        gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
+    ) -> None:
+        if not time_step > 0:
+            raise ValueError(f"time_step must be > 0 s, got {time_step!r}")
+        if int(substeps) != substeps or substeps < 1:
+            raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
+        self.time_step = float(time_step)
+        self.substeps = int(substeps)
+        self.gui = bool(gui)
+        self._bc: BulletClient | None = BulletClient(p.GUI if gui else p.DIRECT)
+        self.client_id: int = self._bc._client
+        if self.client_id < 0:
+            raise RuntimeError("could not connect a PyBullet client")
+        cid = self.client_id
+        p.setTimeStep(self.time_step, physicsClientId=cid)
+        p.setGravity(*gravity, physicsClientId=cid)
+        if gui:
+            p.configureDebugVisualizer(p.COV_ENABLE_GUI, 0, physicsClientId=cid)
+        self.table_id = self._make_table()
+
+    def _make_table(self) -> int:
+        cid = self.client_id
+        col = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid)
+        vis = p.createVisualShape(
+            p.GEOM_BOX,
+            halfExtents=[0.3, 0.3, 0.001],
+            visualFramePosition=[0.0, 0.0, -0.001],
+            rgbaColor=[0.75, 0.72, 0.65, 1.0],
+            physicsClientId=cid,
+        )
+        body = p.createMultiBody(
+            baseMass=0.0,
+            baseCollisionShapeIndex=col,
+            baseVisualShapeIndex=vis,
+            basePosition=[0.0, 0.0, 0.0],
+            physicsClientId=cid,
+        )
+        # The skin computes table contact itself; PyBullet contacts stay out of it.
+        p.setCollisionFilterGroupMask(body, -1, 0, 0, physicsClientId=cid)
+        return body
+
+    @property
+    def connected(self) -> bool:
+        """Whether the client is still open."""
+        return self._bc is not None
+
+    def _require(self) -> int:
+        if self._bc is None:
+            raise RuntimeError("this World is closed")
+        return self.client_id
+
+    def step(self) -> None:
+        """Advance the physics by one ``time_step``."""
+        p.stepSimulation(physicsClientId=self._require())
+
+    def save_state(self) -> int:
+        """Snapshot the physics state in memory; returns its id for ``restore_state``."""
+        return p.saveState(physicsClientId=self._require())
+
+    def restore_state(self, state_id: int) -> None:
+        """Restore a snapshot taken with ``save_state`` (same bodies must exist)."""
+        p.restoreState(stateId=state_id, physicsClientId=self._require())
+
+    def remove_state(self, state_id: int) -> None:
+        """Free a snapshot."""
+        p.removeState(state_id, physicsClientId=self._require())
+
+    def close(self) -> None:
+        """Disconnect the client; safe to call more than once."""
+        if self._bc is None:
+            return
+        try:
+            p.disconnect(physicsClientId=self.client_id)
+        except p.error:
+            pass
+        self._bc._client = -1  # keeps BulletClient.__del__ from disconnecting again
+        self._bc = None
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:
+            pass
