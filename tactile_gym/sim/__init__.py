@@ -1,0 +1,22 @@
+"""Everything that imports pybullet: world, hinged objects, soft skin, F/T sensor, scene.
+
+Frames: world (z up, table top at z = 0) and sensor (origin at the F/T sensor, z along the
+finger axis). SI units throughout.
+"""
+
+from tactile_gym.sim.config import ObjectConfig, SensorConfig, SkinConfig
+from tactile_gym.sim.objects import HingedObject
+from tactile_gym.sim.scene import ProbeScene, StepInfo
+from tactile_gym.sim.skin import SoftSkin
+from tactile_gym.sim.world import World
+
+__all__ = [
+    "HingedObject",
+    "ObjectConfig",
+    "ProbeScene",
+    "SensorConfig",
+    "SkinConfig",
+    "SoftSkin",
+    "StepInfo",
+    "World",
+]
