@@ -144,6 +144,7 @@ class ProbeScene:
         self._rot = np.eye(3)
         self._fingertip_visual = self._make_fingertip_visual()
         self._closed = False
+        self.last_reaction: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._free_reach = float(
             np.linalg.norm(np.abs(self._object.free_center_local) + self._object.free_half)
         )
@@ -276,10 +277,12 @@ class ProbeScene:
             f_new = float(np.linalg.norm(contact.wrench[:3]))
             if f_new > limit and f_new > f_prev:
                 limited = True
-                # Keep only the part of the translation that does not push into the object.
+                # Keep the sideways part of the translation and only the fraction of the
+                # advancing part that linear interpolation puts at the limit; no rotation.
                 f_dir = self._rot @ contact.wrench[:3] / f_new
-                push = float(step_p @ f_dir)
-                pos_new = self._pos + step_p - min(push, 0.0) * f_dir
+                push = min(float(step_p @ f_dir), 0.0)
+                frac = 0.9 * max(0.0, (limit - f_prev) / (f_new - f_prev))
+                pos_new = self._pos + step_p - (1.0 - frac) * push * f_dir
                 rot_new = self._rot
                 contact = skin.evaluate(sel, prims, rot_new, pos_new, dt, moved)
                 f_new = float(np.linalg.norm(contact.wrench[:3]))
@@ -313,16 +316,20 @@ class ProbeScene:
     def _apply_reaction(self, contact: Contact, cid: int) -> None:
         w = contact.prim_wrench.get(FREE_BODY)
         if w is None:
+            self.last_reaction = None
             return
         f_world = self._rot @ w[:3]
         m_world = self._rot @ w[3:]
-        r = self._pos - self._object.free_box.center
+        com_copy = self._object.free_box.center.copy()
+        r = self._pos - com_copy
         torque = -m_world - (
             r[1] * f_world[2] - r[2] * f_world[1],
             r[2] * f_world[0] - r[0] * f_world[2],
             r[0] * f_world[1] - r[1] * f_world[0],
         )
         self._object.apply_wrench(-f_world, torque)
+        #: (force, torque about the COM, COM) last applied to the free link, world frame.
+        self.last_reaction = (-f_world, np.asarray(torque, dtype=float), com_copy)
 
     # --- sensing -------------------------------------------------------------------------
 

@@ -1,0 +1,138 @@
+"""Physical validation of the Winkler skin: force-indentation, friction, wrench bookkeeping."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
+
+DOWN = np.array([1.0, 0.0, 0.0, 0.0])  # sensor z along world -z
+FAR = np.array([0.25, -0.15])  # table spot far from the object, m
+
+
+@pytest.fixture(scope="module")
+def scene():
+    s = ProbeScene(ObjectConfig.scissors())
+    yield s
+    s.close()
+
+
+def _tip_height(scene) -> float:
+    g = scene.geometry
+    return g.cylinder_length + g.outer_radius
+
+
+def _press_table(scene, depth: float, steps: int = 10) -> None:
+    top = _tip_height(scene)
+    scene.reset(0.0, [*FAR, top + 0.001], DOWN)
+    for k in range(1, steps + 1):
+        z = top + 0.001 - (0.001 + depth) * k / steps
+        scene.control_step([*FAR, z], DOWN)
+    scene.control_step([*FAR, top - depth], DOWN)  # hold: no damping left
+
+
+@pytest.mark.parametrize("depth", [0.0005, 0.001, 0.0013])
+def test_force_indentation_matches_winkler_integral(scene, depth):
+    """Sphere pressed on a plane: F = k_n * integral(delta dA) = pi R k_n D^2."""
+    _press_table(scene, depth)
+    info_force = scene.true_wrench[:3]
+    k_n = scene.skin_config.normal_stiffness
+    analytic = np.pi * scene.geometry.outer_radius * k_n * depth**2
+    # On the skin, the table pushes along world +z, i.e. sensor -z.
+    assert -info_force[2] == pytest.approx(analytic, rel=0.05)
+    assert np.linalg.norm(info_force[:2]) < 1e-6 * analytic
+    assert not scene.contact.n_active == 0
+
+
+def test_friction_sliding_ratio_is_mu_and_small_shear_sticks(scene):
+    depth = 0.001
+    _press_table(scene, depth)
+    top = _tip_height(scene)
+    mu = scene.skin_config.friction
+    fn0 = -scene.true_wrench[2]
+    area = scene.skin.areas[scene.contact.nodes].sum()
+    # Small shear: sticks; the traction is the tangential spring, below mu * normal.
+    shift = 2e-5
+    scene.control_step([FAR[0] + shift, FAR[1], top - depth], DOWN)
+    scene.control_step([FAR[0] + shift, FAR[1], top - depth], DOWN)
+    ft = np.linalg.norm(scene.true_wrench[:2])
+    assert ft < 0.5 * mu * fn0
+    assert ft == pytest.approx(scene.skin_config.k_t * area * shift, rel=0.15)
+    # Sliding 5 mm: the ratio tends to mu.
+    ratios = []
+    for k in range(1, 21):
+        scene.control_step([FAR[0] + shift + 0.00025 * k, FAR[1], top - depth], DOWN)
+        w = scene.true_wrench
+        ratios.append(np.linalg.norm(w[:2]) / -w[2])
+    assert np.mean(ratios[-5:]) == pytest.approx(mu, rel=0.03)
+    assert max(ratios) <= mu * 1.05
+
+
+def test_wrench_is_sum_of_node_forces_and_matches_reaction(scene):
+    ep, ed = scene.edge_line
+    g = scene.geometry
+    n = np.array([0.0, -np.sin(0.3), np.cos(0.3)])
+    c = ep + 0.05 * ed + (g.outer_radius - 0.0015) * n
+    quat_axis = -n
+    x = np.array([1.0, 0.0, 0.0])
+    y = np.cross(quat_axis, x)
+    from tactile_gym.sim.objects import matrix_to_quaternion
+
+    q = matrix_to_quaternion(np.column_stack([x, y, quat_axis]))
+    scene.reset(0.0, c - g.cylinder_length * quat_axis, q)
+    info = scene.control_step(c - g.cylinder_length * quat_axis + [0, -0.0003, 0], q)
+    assert info.n_active_nodes > 10
+    contact = scene.contact
+    f = contact.forces_sensor()
+    r = contact.points_sensor()
+    w = scene.true_wrench
+    np.testing.assert_allclose(w[:3], f.sum(0), atol=1e-9)
+    np.testing.assert_allclose(w[3:], np.cross(r, f).sum(0), atol=1e-11)
+    # Newton's third law: the reaction on the free link is minus the skin's wrench.
+    force, torque, com = scene.last_reaction
+    f_world = scene.sensor_to_world_vector(w[:3])
+    m_world = scene.sensor_to_world_vector(w[3:])  # about the sensor origin
+    np.testing.assert_allclose(force, -f_world, atol=1e-9)
+    p0 = scene.fingertip_position
+    np.testing.assert_allclose(torque + np.cross(com - p0, force), -m_world, atol=1e-10)
+
+
+def test_shell_contact_is_flagged(scene):
+    top = _tip_height(scene)
+    scene.reset(0.0, [*FAR, top - 0.006], DOWN)  # deeper than the 5 mm skin
+    info = scene.control_step([*FAR, top - 0.006], DOWN)
+    assert info.shell_contact
+    assert info.max_penetration > scene.geometry.skin_thickness
+
+
+def test_guarded_move_stops_at_force_limit(scene):
+    top = _tip_height(scene)
+    scene.reset(0.0, [*FAR, top + 0.001], DOWN)
+    limited = False
+    for _ in range(20):
+        info = scene.control_step([*FAR, top - 0.004], DOWN)
+        limited |= info.force_limited
+        assert info.max_force <= scene.force_limit + 1e-9
+    assert limited
+    assert np.linalg.norm(scene.true_wrench[:3]) > 0.75 * scene.force_limit
+    # Retreat is allowed.
+    scene.control_step([*FAR, top + 0.01], DOWN)
+    assert scene.fingertip_position[2] > top - 0.004 + 0.001
+
+
+def test_read_wrench_uses_only_the_given_generator(scene):
+    _press_table(scene, 0.001, steps=4)
+    state = np.random.get_state()
+    a = scene.read_wrench(np.random.default_rng(3))
+    b = scene.read_wrench(np.random.default_rng(3))
+    assert np.random.get_state()[1].tolist() == state[1].tolist()
+    np.testing.assert_array_equal(a, b)
+    noise = np.array([scene.read_wrench(np.random.default_rng(i)) for i in range(400)])
+    noise -= scene.true_wrench
+    assert noise[:, :3].std() == pytest.approx(scene.sensor_config.force_noise_std, rel=0.15)
+    assert noise[:, 3:].std() == pytest.approx(scene.sensor_config.moment_noise_std, rel=0.15)
+
+
+def test_default_spacing_is_fine_enough():
+    assert SkinConfig().node_spacing <= 0.0007
