@@ -123,10 +123,10 @@ def test_guarded_move_stops_at_force_limit(scene):
 
 def test_read_wrench_uses_only_the_given_generator(scene):
     _press_table(scene, 0.001, steps=4)
-    state = np.random.get_state()
+    state = np.random.get_state()  # noqa: NPY002 - checking the global one stays untouched
     a = scene.read_wrench(np.random.default_rng(3))
     b = scene.read_wrench(np.random.default_rng(3))
-    assert np.random.get_state()[1].tolist() == state[1].tolist()
+    assert np.random.get_state()[1].tolist() == state[1].tolist()  # noqa: NPY002
     np.testing.assert_array_equal(a, b)
     noise = np.array([scene.read_wrench(np.random.default_rng(i)) for i in range(400)])
     noise -= scene.true_wrench
