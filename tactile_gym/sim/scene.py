@@ -259,7 +259,22 @@ class ProbeScene:
         f_prev = float(np.linalg.norm(skin.contact.wrench[:3]))
         limit = self.force_limit
         cid = self._world.client_id
+        body = obj.body_id
         for k in range(n):
+            if not len(sel.nodes):
+                # Nothing within reach: skip the skin until the motion could close the gap.
+                angle = p.getJointState(body, 0, physicsClientId=cid)[0]
+                if tip_moved + step_len + abs(angle - q_sel) * reach_obj < sel.reach:
+                    if skin.contact.n_active:
+                        skin.commit(skin.evaluate(sel, prims, self._rot, self._pos, dt))
+                    self._pos = self._pos + step_p
+                    if moving_rot:
+                        self._rot = step_r @ self._rot
+                    tip_moved += step_len
+                    self.last_reaction = None
+                    self._world.step()
+                    f_prev = 0.0
+                    continue
             if k:
                 obj.sync()
             moved = tip_moved + step_len + abs(obj.joint_angle - q_sel) * reach_obj
