@@ -1,0 +1,29 @@
+"""Joint-axis estimation from tactile measurements (Matsuo et al. 2010, section II and IV-B).
+
+NumPy/SciPy only: this package must import without pybullet or torch, so real robots can
+reuse it. Everything is in the world frame (z up), metres and radians.
+
+* :func:`fit_axis_planar` - the paper's proposed method for an axis along z (eq. 16-21);
+* :func:`fit_axis_simple` - the paper's perpendicular-bisector baseline (eq. 22-26);
+* :func:`fit_axis_3d` - any axis direction (eq. 3, 8, 9-10), robust losses, covariance;
+* :class:`JointAxisEstimator` - the online, weighted estimator;
+* :func:`axis_error` - position and angle error against the truth (DESIGN.md section 4).
+"""
+
+from tactile_gym.estimation.axis import COVARIANCE_LAYOUT, AxisEstimate
+from tactile_gym.estimation.fit3d import LOSSES, fit_axis_3d
+from tactile_gym.estimation.fits import fit_axis_planar, fit_axis_simple, planar_residual_variance
+from tactile_gym.estimation.metrics import axis_error
+from tactile_gym.estimation.online import JointAxisEstimator
+
+__all__ = [
+    "COVARIANCE_LAYOUT",
+    "LOSSES",
+    "AxisEstimate",
+    "JointAxisEstimator",
+    "axis_error",
+    "fit_axis_3d",
+    "fit_axis_planar",
+    "fit_axis_simple",
+    "planar_residual_variance",
+]

@@ -1,0 +1,218 @@
+"""The joint-axis estimate returned by every fit, and the helpers the fits share.
+
+Conventions (DESIGN.md section 4):
+
+* World frame (z up, table top at z = 0), metres, radians.
+* An axis is the line ``point + s * direction``. ``point`` is the point of the line closest to
+  the world origin (``point . direction = 0``); ``direction`` is a unit vector whose
+  largest-magnitude component is positive (for a vertical axis that is +z, for an axis along
+  x it is +x). Ties (axes on a diagonal) go to the earlier component, x before y before z.
+* Edge directions are unoriented lines on the object, but the fits need a consistent
+  orientation: consecutive measurements are oriented so that they point the same way
+  (``e_i . e_{i-1} > 0``), which requires the link to turn by less than 90 degrees between
+  measurements.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["AxisEstimate", "COVARIANCE_LAYOUT"]
+
+COVARIANCE_LAYOUT = (
+    "point_x",
+    "point_y",
+    "point_z",
+    "direction_x",
+    "direction_y",
+    "direction_z",
+    "distance",
+)
+"""Order of the parameters in :attr:`AxisEstimate.covariance`."""
+
+# Relative singular-value floor below which a design matrix counts as rank deficient.
+DEGENERATE_CONDITION = 1e8
+
+
+@dataclass(frozen=True)
+class AxisEstimate:
+    """A joint axis fitted to tactile measurements (world frame, metres, radians).
+
+    Attributes:
+        point: (3,) point of the axis closest to the world origin (``point . direction == 0``),
+            m. NaN when ``degenerate``.
+        direction: (3,) unit direction of the axis, largest-magnitude component positive.
+            The planar fits return (0, 0, 1) by assumption; NaN when a 3D fit is
+            ``degenerate``.
+        distance: distance between the edge lines and the axis, m (>= 0). For the simple
+            method (no edges) it is the mean distance of the contact points from the axis.
+            NaN when ``degenerate``.
+        covariance: (7, 7) first-order covariance of the flattened vector
+            ``(point_x, point_y, point_z, direction_x, direction_y, direction_z, distance)``
+            (see ``COVARIANCE_LAYOUT``), in m^2, m, and dimensionless units. It is singular
+            by construction: ``|direction| = 1`` and ``point . direction = 0`` remove two
+            degrees of freedom, and the planar fits hold the direction and ``point_z``
+            fixed (zero rows). None when it cannot be estimated (degenerate, or no residual
+            degrees of freedom to estimate the noise from when no weights were given).
+        position_std: root of the expected squared displacement of ``point`` perpendicular
+            to the axis, m (sqrt of the trace of the perpendicular block). inf when unknown.
+        angle_std: root of the expected squared angle between the estimated and true
+            direction, rad. 0 for the planar fits (direction assumed), inf when unknown.
+        residual_rms: RMS of the distance residuals (edge line to axis minus ``distance``;
+            contact point to axis minus radius for the simple method), m.
+        n_used: number of measurements that entered the fit.
+        degenerate: True when the data do not determine the axis (too few measurements,
+            identical or all-parallel edges, collinear points, rank deficiency). The
+            numeric fields are then NaN or inf and must not be used.
+        condition_number: condition number of the (column-scaled) design matrix or
+            Jacobian; inf when rank deficient. Large values (> 1e4) mean that small
+            measurement errors move the axis a lot.
+        method: which fit produced it: ``"planar"``, ``"simple"``, ``"3d"`` or
+            ``"3d-parallel"`` (edges parallel to the axis, paper eq. 9-10).
+    """
+
+    point: np.ndarray
+    direction: np.ndarray
+    distance: float
+    covariance: np.ndarray | None
+    position_std: float
+    angle_std: float
+    residual_rms: float
+    n_used: int
+    degenerate: bool
+    condition_number: float
+    method: str
+
+    def distance_to(self, points: np.ndarray) -> np.ndarray | float:
+        """Distance from world points (3,) or (N, 3) to the estimated axis line, m.
+
+        Returns inf for a degenerate estimate.
+        """
+        q = np.asarray(points, dtype=float)
+        if q.ndim not in (1, 2) or q.shape[-1] != 3:
+            raise ValueError(f"points must have shape (3,) or (N, 3), got {q.shape}")
+        if self.degenerate:
+            out = np.full(q.shape[:-1], np.inf)
+            return float(out) if q.ndim == 1 else out
+        w = q - self.point
+        perp = w - (w @ self.direction)[..., None] * self.direction
+        dist = np.linalg.norm(perp, axis=-1)
+        return float(dist) if q.ndim == 1 else dist
+
+
+def canonical_direction(u: np.ndarray) -> tuple[np.ndarray, float]:
+    """Unit ``u`` with its largest-magnitude component made positive, and the sign applied."""
+    i = int(np.argmax(np.abs(u)))
+    sign = 1.0 if u[i] >= 0 else -1.0
+    return u * sign, sign
+
+
+def closest_point_to_origin(point: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """The point of the line ``point + s direction`` closest to the origin (unit direction)."""
+    return point - (point @ direction) * direction
+
+
+def degenerate_estimate(method: str, n_used: int, planar: bool) -> AxisEstimate:
+    """A flagged estimate: NaN geometry, inf uncertainties, no covariance."""
+    nan3 = np.full(3, np.nan)
+    return AxisEstimate(
+        point=nan3,
+        direction=np.array([0.0, 0.0, 1.0]) if planar else nan3.copy(),
+        distance=float("nan"),
+        covariance=None,
+        position_std=float("inf"),
+        angle_std=0.0 if planar else float("inf"),
+        residual_rms=float("nan"),
+        n_used=int(n_used),
+        degenerate=True,
+        condition_number=float("inf"),
+        method=method,
+    )
+
+
+def stds_from_covariance(cov: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
+    """(position_std, angle_std) from a 7x7 covariance in ``COVARIANCE_LAYOUT`` order."""
+    perp = np.eye(3) - np.outer(direction, direction)
+    cp = perp @ cov[:3, :3] @ perp
+    pos = float(np.sqrt(max(np.trace(cp), 0.0)))
+    ang = float(np.sqrt(max(np.trace(cov[3:6, 3:6]), 0.0)))
+    return pos, ang
+
+
+# ----------------------------------------------------------------------------- validation
+
+
+def as_points(points: object, name: str = "points", dims: tuple[int, ...] = (2, 3)) -> np.ndarray:
+    """Validate an (N, 2) or (N, 3) float array of finite values."""
+    a = np.asarray(points, dtype=float)
+    if a.ndim != 2 or a.shape[1] not in dims:
+        allowed = " or ".join(f"(N, {d})" for d in dims)
+        raise ValueError(f"{name} must have shape {allowed}, got {a.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(
+            f"{name} must be finite, got non-finite values in rows "
+            f"{np.flatnonzero(~np.isfinite(a).all(axis=1)).tolist()}"
+        )
+    return a
+
+
+def as_unit_edges(edges: object, n: int, dims: tuple[int, ...] = (2, 3)) -> np.ndarray:
+    """Validate (N, 2|3) edges, non-zero and finite, and normalise them."""
+    e = as_points(edges, "edges", dims)
+    if e.shape[0] != n:
+        raise ValueError(f"edges must have as many rows as points ({n}), got {e.shape[0]}")
+    norm = np.sqrt(np.einsum("ij,ij->i", e, e))
+    bad = norm < 1e-12
+    if bad.any():
+        rows = np.flatnonzero(bad).tolist()
+        raise ValueError(f"edges must be non-zero direction vectors, got zero rows {rows}")
+    return e / norm[:, None]
+
+
+def as_stds(value: object, n: int, name: str, unit: str) -> np.ndarray:
+    """Validate a scalar or (N,) array of finite standard deviations >= 0."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0:
+        a = np.full(n, float(a))
+    if a.shape != (n,):
+        raise ValueError(f"{name} must be a scalar or shape ({n},), got {a.shape}")
+    if not np.isfinite(a).all() or (a < 0).any():
+        raise ValueError(f"{name} must be finite and >= 0 {unit}, got {a.tolist()}")
+    return a
+
+
+def as_weights(weights: object, n: int) -> np.ndarray:
+    """Validate an (N,) array of finite weights >= 0."""
+    w = np.asarray(weights, dtype=float)
+    if w.shape != (n,):
+        raise ValueError(f"weights must have shape ({n},), got {w.shape}")
+    if not np.isfinite(w).all() or (w < 0).any():
+        raise ValueError(f"weights must be finite and >= 0, got {w.tolist()}")
+    return w
+
+
+def resolve_signs_consecutive(e: np.ndarray) -> np.ndarray:
+    """Flip rows of ``e`` so that each points the same way as the previous one (vectorised)."""
+    if e.shape[0] < 2:
+        return e
+    dots = np.einsum("ij,ij->i", e[1:], e[:-1])
+    s = np.where(dots < 0.0, -1.0, 1.0)
+    flips = np.empty(e.shape[0])
+    flips[0] = 1.0
+    np.cumprod(s, out=flips[1:])
+    return e * flips[:, None]
+
+
+def resolve_sign_against(e: np.ndarray, previous: np.ndarray) -> np.ndarray:
+    """Orient edge ``e`` like the previous edge it is most nearly parallel to.
+
+    Comparing with the best-aligned of the last few edges (instead of only the last one)
+    keeps one wild edge from flipping every edge after it.
+    """
+    if previous.shape[0] == 0:
+        return e
+    dots = previous @ e
+    j = int(np.argmax(np.abs(dots)))
+    return -e if dots[j] < 0.0 else e

@@ -1,0 +1,729 @@
+"""3D joint-axis fit from contact points and edge directions (paper eq. 3, 8, 9-10).
+
+Conventions: world frame, metres, radians; the result follows
+:class:`~tactile_gym.estimation.axis.AxisEstimate` (``point . direction = 0``, direction with
+its largest-magnitude component positive).
+
+Model. Edge line i passes through contact point ``x_i`` with unit direction ``e_i``; the axis
+passes through ``p`` with unit direction ``u``. A rotation about the axis keeps two
+invariants of the edge line relative to the axis (in Pluecker terms, with
+``m_i = x_i x e_i`` and ``m_a = p x u``):
+
+* the angle between them, ``c = e_i . u = cos(theta)``;
+* the reciprocal product ``k = e_i . m_a + u . m_i = (x_i - p) . (e_i x u) = d sin(theta)``,
+  where d is the common distance of the paper's eq. 8 (signed by the edge orientation).
+
+Both residuals, ``r1_i = (x_i - p) . (e_i x u) - k`` and ``r2_i = e_i . u - c``, are
+polynomials in the unknowns, so they stay smooth where the skew-line distance
+``|r1| / |e_i x u|`` would not. The edges must be oriented consistently (sign resolution
+below). ``d = |k| / sin(theta)``.
+
+When every edge is parallel to the axis (a door's free edge beside a vertical hinge) the
+reciprocal product vanishes and says nothing about p. That case (eq. 9-10) uses the
+point-to-axis distance ``|(x_i - p) x u| - d`` and the edge-axis misalignment
+``(e_i x u) . b_j`` (b_1, b_2 spanning the plane normal to the axis) instead.
+
+Solution. A closed-form initial guess: r1 and r2 are linear and homogeneous in
+``z = (u, m_a, c, k)``, so the guess comes from the two smallest right singular vectors of
+the stacked system (the second one is the gauge ``m_a -> m_a + s u``, ``k -> k + s c``),
+followed by ``|u| = 1`` and ``u . m_a = 0``. It is refined by
+``scipy.optimize.least_squares`` over a minimal local parameterisation: u moved by two
+small angles in a basis normal to the current u, p by two offsets in that plane (the point
+along the axis is a gauge, fixed by ``p . u = 0``), plus (k, c) or d.
+
+Weights. With ``point_std`` (m) and ``edge_std`` (rad) the 2x2 covariance of (r1, r2) of
+each measurement is predicted at the current axis (isotropic point noise, edge noise of
+``edge_std`` in each of the two directions normal to the edge) and the residuals are
+whitened by it; the covariance of the result is then absolute. Without stds, r2 is scaled
+by the RMS spread of the contact points (a length) and one common noise level is estimated
+from the residuals.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from tactile_gym.estimation.axis import (
+    DEGENERATE_CONDITION,
+    AxisEstimate,
+    as_points,
+    as_stds,
+    as_unit_edges,
+    as_weights,
+    canonical_direction,
+    degenerate_estimate,
+    resolve_sign_against,
+    stds_from_covariance,
+)
+
+__all__ = ["fit_axis_3d", "LOSSES"]
+
+LOSSES = ("linear", "soft_l1", "huber", "cauchy")
+"""Loss functions accepted by :func:`fit_axis_3d` (those of scipy's least_squares)."""
+
+# How many previous edges the orientation of a new edge is compared with.
+SIGN_LOOKBACK = 3
+
+_DEFAULT_PARALLEL_TOL = math.radians(1.0)
+_VAR_FLOOR = 1e-24
+
+
+def fit_axis_3d(
+    points: np.ndarray,
+    edges: np.ndarray,
+    weights: np.ndarray | None = None,
+    *,
+    point_std: np.ndarray | float | None = None,
+    edge_std: np.ndarray | float | None = None,
+    loss: str = "linear",
+    f_scale: float | None = None,
+    parallel_tol: float = _DEFAULT_PARALLEL_TOL,
+    resolve_signs: bool = True,
+) -> AxisEstimate:
+    """Fit a joint axis of any direction to contact points and edge directions.
+
+    Args:
+        points: (N, 3) contact points, world frame, m.
+        edges: (N, 3) edge directions, world frame (normalised here; orientation resolved
+            as described under ``resolve_signs``).
+        weights: optional (N,) relative weights >= 0 (dimensionless multipliers of each
+            measurement's inverse variance; 0 drops it).
+        point_std: contact-point std per axis, m; scalar or (N,). With ``edge_std``.
+        edge_std: edge-direction std (each of the two directions normal to the edge), rad;
+            scalar or (N,). With ``point_std``.
+        loss: ``"linear"`` (least squares) or a robust loss of scipy's least_squares:
+            ``"soft_l1"``, ``"huber"``, ``"cauchy"``.
+        f_scale: residual level where the robust loss starts to bend, in standard
+            deviations when stds are given (default 2), else in metres (default: 2 x a
+            MAD-based noise estimate from the initial guess).
+        parallel_tol: the edges count as parallel to the axis (eq. 9-10 model) when all of
+            them (robust losses: two thirds) lie within
+            ``max(parallel_tol, 4 * median(edge_std))`` rad of their mean direction.
+        resolve_signs: orient each edge like the best-aligned of the previous
+            ``SIGN_LOOKBACK`` (already oriented) edges; a wild edge then cannot flip all
+            that follow. Pass False for edges already oriented consistently.
+
+    Returns:
+        The estimate, ``method="3d"`` or ``"3d-parallel"``. ``degenerate=True`` when the data
+        do not determine the axis: fewer than 3 measurements (general case: fewer than
+        three distinct edge lines), identical measurements, collinear contact points in the
+        parallel case, or a rank-deficient Jacobian.
+
+    Raises:
+        ValueError: on malformed input (shapes, non-finite values, zero edges, negative
+            stds or weights, unknown loss, f_scale <= 0).
+    """
+    x = as_points(points, "points", dims=(3,))
+    n = x.shape[0]
+    e = as_unit_edges(edges, n, dims=(3,))
+    if loss not in LOSSES:
+        raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
+    if f_scale is not None and not (math.isfinite(f_scale) and f_scale > 0):
+        raise ValueError(f"f_scale must be a finite number > 0, got {f_scale!r}")
+    if not (math.isfinite(parallel_tol) and 0 <= parallel_tol < math.pi / 2):
+        raise ValueError(f"parallel_tol must be in [0, pi/2) rad, got {parallel_tol!r}")
+    if (point_std is None) != (edge_std is None):
+        raise ValueError("point_std and edge_std must be given together")
+    w = np.ones(n) if weights is None else as_weights(weights, n)
+    if point_std is None:
+        sx = se = None
+    else:
+        sx = as_stds(point_std, n, "point_std", "m")
+        se = as_stds(edge_std, n, "edge_std", "rad")
+    keep = w > 0
+    if not keep.all():
+        x, e, w = x[keep], e[keep], w[keep]
+        if sx is not None:
+            sx, se = sx[keep], se[keep]
+    if resolve_signs:
+        e = orient_edges(e)
+    return _fit(x, e, w, sx, se, loss, f_scale, parallel_tol)
+
+
+def orient_edges(e: np.ndarray) -> np.ndarray:
+    """Orient unit edges (N, 3) consistently, each like its best-aligned recent predecessor."""
+    out = e.copy()
+    for i in range(1, out.shape[0]):
+        out[i] = resolve_sign_against(out[i], out[max(0, i - SIGN_LOOKBACK) : i])
+    return out
+
+
+# ------------------------------------------------------------------------------ the solver
+
+
+class _Problem:
+    """Centred, validated data plus what the residual functions need."""
+
+    def __init__(self, x, e, w, sx, se, loss, f_scale):
+        self.centre = x.mean(axis=0)
+        self.x = x - self.centre
+        self.e = e
+        self.sqrt_w = np.sqrt(w)
+        self.sx = sx
+        self.se = se
+        self.loss = loss
+        spread = float(np.sqrt(np.mean(np.einsum("ij,ij->i", self.x, self.x))))
+        self.length = max(spread, 1e-3)
+        self.f_scale = f_scale
+        self.n = x.shape[0]
+
+
+def _fit(x, e, w, sx, se, loss, f_scale, parallel_tol) -> AxisEstimate:
+    n = x.shape[0]
+    if n < 3:
+        return degenerate_estimate("3d", n, planar=False)
+    prob = _Problem(x, e, w, sx, se, loss, f_scale)
+    tol = parallel_tol if se is None else max(parallel_tol, 4.0 * float(np.median(se)))
+    mean_dir, frac = _parallel_fraction(e, tol)
+    need = 1.0 if loss == "linear" else 2.0 / 3.0
+    if frac >= need:
+        return _fit_parallel(prob, mean_dir, tol)
+    if loss != "linear" and n >= 6:
+        found = _consensus(prob)
+        if found is not None and not found[0].all():
+            inliers, signs = found
+            e = e * signs[:, None]
+            sub = _Problem(
+                x[inliers],
+                e[inliers],
+                w[inliers],
+                None if sx is None else sx[inliers],
+                None if se is None else se[inliers],
+                loss,
+                f_scale,
+            )
+            return _fit_general(sub)
+    return _fit_general(prob)
+
+
+# Squared whitened residual norm (2 dof) beyond which a measurement is an outlier: the
+# chi-square 99 % quantile.
+_CHI2_2DOF_99 = 9.21
+_CONSENSUS_TRIALS = 24
+
+
+def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
+    """Inlier mask and edge signs (+-1) of the best minimal (3-line) closed-form fit, RANSAC-style.
+
+    A per-residual robust loss is not enough here: for nearly planar motion an axis lying
+    in the plane of the contacts zeroes every reciprocal-product residual, and wild edges
+    then make that wrong axis cheaper under L1-like losses. Candidate triples are spread
+    over the sequence (deterministically, then from a fixed-seed generator), so results
+    are reproducible.
+    """
+    n = prob.n
+    third = max(n // 3, 1)
+    triples = [(i, (i + third) % n, (i + 2 * third) % n) for i in range(n)]
+    gen = np.random.default_rng(0)
+    while len(triples) < _CONSENSUS_TRIALS:
+        triples.append(tuple(gen.choice(n, size=3, replace=False).tolist()))
+    best, best_key = None, None
+    for tri in triples[:_CONSENSUS_TRIALS]:
+        idx = np.array(tri)
+        if len(set(tri)) < 3:
+            continue
+        sub = _Problem.__new__(_Problem)
+        sub.__dict__.update(prob.__dict__)
+        sub.x, sub.e, sub.n = prob.x[idx], prob.e[idx], 3
+        sub.sqrt_w = prob.sqrt_w[idx]
+        sub.sx = None if prob.sx is None else prob.sx[idx]
+        sub.se = None if prob.se is None else prob.se[idx]
+        sub.loss = "linear"
+        init = _linear_init(sub, _whitening_scale_only(sub))
+        if init is None:
+            continue
+        u, p, k, c = init
+        z = _whitened_norms(prob, u, p, k, c)
+        if prob.sx is None:
+            z = z / max(float(np.median(z)), 1e-30) * 0.5
+        inl = z < _CHI2_2DOF_99
+        key = (int(inl.sum()), -float(np.minimum(z, _CHI2_2DOF_99).sum()))
+        if best_key is None or key > best_key:
+            best, best_key, best_fit = inl, key, (u, p, k, c)
+    if best is None or best.sum() < 4:
+        return None
+    u, p, k, c = best_fit
+    d = np.einsum("ij,ij->i", prob.x - p, _cross(prob.e, u[None, :]))
+    a = prob.e @ u
+    flip = (d + k) ** 2 + (prob.length * (a + c)) ** 2 < (d - k) ** 2 + (prob.length * (a - c)) ** 2
+    return best, np.where(flip, -1.0, 1.0)
+
+
+def _whitened_norms(prob: _Problem, u, p, k, c) -> np.ndarray:
+    """Squared whitened (r1, r2) norm per measurement, the better of both edge signs."""
+    wh = _whitening_general(prob, u, p) if prob.sx is not None else _whitening_scale_only(prob)
+    d = np.einsum("ij,ij->i", prob.x - p, _cross(prob.e, u[None, :]))
+    a = prob.e @ u
+    out = None
+    for sgn in (1.0, -1.0):
+        r1 = sgn * d - k
+        r2 = sgn * a - c
+        z1 = wh[:, 0] * r1
+        z2 = wh[:, 1] * r1 + wh[:, 2] * r2
+        z = z1 * z1 + z2 * z2
+        out = z if out is None else np.minimum(out, z)
+    return out
+
+
+def _parallel_fraction(e: np.ndarray, tol: float) -> tuple[np.ndarray, float]:
+    """Principal (sign-free) mean direction of the edges and the fraction within tol of it."""
+    vals, vecs = np.linalg.eigh(e.T @ e)
+    u = vecs[:, 2]
+    inside = np.abs(e @ u) >= math.cos(tol)
+    if inside.any() and not inside.all():
+        vals, vecs = np.linalg.eigh(e[inside].T @ e[inside])
+        u = vecs[:, 2]
+        inside = np.abs(e @ u) >= math.cos(tol)
+    return u, float(inside.mean())
+
+
+def _basis(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors completing u to a right-handed orthonormal basis (b1, b2, u)."""
+    a = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    b1 = a - (a @ u) * u
+    b1 /= np.linalg.norm(b1)
+    return b1, _cross3(u, b1)
+
+
+def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product of two 3-vectors (np.cross has a large fixed cost)."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (N, 3) arrays (np.cross has a large fixed cost)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+# ---------------------------------------------------------------------------- general case
+
+
+def _whitening_general(prob: _Problem, u: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(N, 3) entries (w00, w10, w11) of the lower-triangular inverse Cholesky factors.
+
+    Whitened residuals are ``(w00 r1, w10 r1 + w11 r2)``.
+    """
+    n = prob.n
+    if prob.sx is None:
+        out = np.empty((n, 3))
+        out[:, 0] = 1.0
+        out[:, 1] = 0.0
+        out[:, 2] = prob.length
+        return out * prob.sqrt_w[:, None]
+    e = prob.e
+    wv = prob.x - p
+    nrm = _cross(e, u[None, :])
+    g = _cross(np.broadcast_to(u, wv.shape), wv)
+    g_perp = g - np.einsum("ij,ij->i", g, e)[:, None] * e
+    u_perp = u - (e @ u)[:, None] * e
+    sx2 = prob.sx**2
+    se2 = prob.se**2
+    s11 = sx2 * np.einsum("ij,ij->i", nrm, nrm) + se2 * np.einsum("ij,ij->i", g_perp, g_perp)
+    s22 = se2 * np.einsum("ij,ij->i", u_perp, u_perp)
+    s12 = se2 * np.einsum("ij,ij->i", g_perp, u_perp)
+    # Second-order floors: at theta = 0 the first-order variances vanish.
+    s11 = s11 + 0.5 * se2 * se2 * prob.length**2 + sx2 * se2 + _VAR_FLOOR
+    s22 = s22 + 0.5 * se2 * se2 + _VAR_FLOOR
+    # Cholesky of [[s11, s12], [s12, s22]] and its inverse.
+    l11 = np.sqrt(s11)
+    l21 = s12 / l11
+    l22 = np.sqrt(np.maximum(s22 - l21 * l21, _VAR_FLOOR))
+    out = np.empty((n, 3))
+    out[:, 0] = 1.0 / l11
+    out[:, 1] = -l21 / (l11 * l22)
+    out[:, 2] = 1.0 / l22
+    return out * prob.sqrt_w[:, None]
+
+
+def _linear_init(prob: _Problem, wh: np.ndarray):
+    """Closed-form (u, p, k, c) from the homogeneous system in z = (u, m_a / L, c, k / L).
+
+    Returns None when the system does not determine the axis.
+    """
+    x, e, n, length = prob.x, prob.e, prob.n, prob.length
+    m = _cross(x, e) / length
+    a1 = np.zeros((n, 8))  # r1 / L rows: m_i / L . u + e_i . m_a / L - k / L
+    a1[:, 0:3] = m
+    a1[:, 3:6] = e
+    a1[:, 7] = -1.0
+    a2 = np.zeros((n, 8))  # r2 rows: e_i . u - c
+    a2[:, 0:3] = e
+    a2[:, 6] = -1.0
+    # Whitening of (r1, r2); r1 / L has L times smaller a standard deviation.
+    w00 = wh[:, 0:1] * length
+    w10 = wh[:, 1:2] * length
+    a = np.concatenate([w00 * a1, w10 * a1 + wh[:, 2:3] * a2])
+    if a.shape[0] < 8:
+        a = np.concatenate([a, np.zeros((8 - a.shape[0], 8))])
+    _, s, vt = np.linalg.svd(a)
+    if not s[0] > 0 or s[5] <= s[0] / DEGENERATE_CONDITION:
+        return None
+    v2 = vt[6:8]  # the two smallest right singular vectors
+    uu, su, wt = np.linalg.svd(v2[:, 0:3].T)
+    if su[0] < 1e-6:
+        return None
+    z = wt[0] @ v2
+    scale = np.linalg.norm(z[0:3])
+    u = z[0:3] / scale
+    m_a = z[3:6] * length / scale
+    m_a = m_a - (u @ m_a) * u
+    p = _cross3(u, m_a)
+    # Medians keep wild edges from dragging (k, c) when a robust loss follows.
+    centre = np.mean if prob.loss == "linear" else np.median
+    c = float(centre(e @ u))
+    k = float(centre(np.einsum("ij,ij->i", x - p, _cross(e, u[None, :]))))
+    return u, p, k, c
+
+
+def _residuals_general(prob, wh, u0, b1, b2):
+    x, e = prob.x, prob.e
+    w00, w10, w11 = wh[:, 0], wh[:, 1], wh[:, 2]
+    n = prob.n
+
+    def unpack(t):
+        v = u0 + t[0] * b1 + t[1] * b2
+        nv = math.sqrt(float(v @ v))
+        return v / nv, nv, t[2] * b1 + t[3] * b2
+
+    def fun(t):
+        u, _, p = unpack(t)
+        mom = _cross(x - p, e)
+        r1 = mom @ u - t[4]
+        r2 = e @ u - t[5]
+        out = np.empty(2 * n)
+        out[:n] = w00 * r1
+        out[n:] = w10 * r1 + w11 * r2
+        return out
+
+    def jac(t):
+        u, nv, p = unpack(t)
+        mom = _cross(x - p, e)
+        ju = (np.eye(3) - np.outer(u, u)) / nv @ np.column_stack([b1, b2])
+        j1 = np.empty((n, 6))
+        j1[:, 0:2] = mom @ ju
+        # d r1 / d s_j = -u . (b_j x e_i) = -e_i . (u x b_j)
+        j1[:, 2] = -(e @ _cross3(u, b1))
+        j1[:, 3] = -(e @ _cross3(u, b2))
+        j1[:, 4] = -1.0
+        j1[:, 5] = 0.0
+        j2 = np.zeros((n, 6))
+        j2[:, 0:2] = e @ ju
+        j2[:, 5] = -1.0
+        out = np.empty((2 * n, 6))
+        out[:n] = w00[:, None] * j1
+        out[n:] = w10[:, None] * j1 + w11[:, None] * j2
+        return out
+
+    return fun, jac
+
+
+def _fit_general(prob: _Problem) -> AxisEstimate:
+    # No axis yet: the first guess is whitened without geometry.
+    wh = _whitening_scale_only(prob)
+    init = _linear_init(prob, wh)
+    if init is None:
+        return degenerate_estimate("3d", prob.n, planar=False)
+    u, p, k, c = init
+    if prob.sx is not None:
+        wh = _whitening_general(prob, u, p)
+    u, p, k, c, wh = _refine_general(prob, u, p, k, c, wh)
+    # Re-orient edges that fit the other way round (a wild edge between two good ones can
+    # have misled the continuity rule), then polish once.
+    if _reorient(prob, u, p, k, c):
+        u, p, k, c, wh = _refine_general(prob, u, p, k, c, wh)
+    return _finish_general(prob, u, p, k, c, wh)
+
+
+def _whitening_scale_only(prob: _Problem) -> np.ndarray:
+    """Whitening before any axis is known: r1 ~ sigma_x + L sigma_e, r2 ~ sigma_e."""
+    if prob.sx is None:
+        return _whitening_general(prob, np.zeros(3), np.zeros(3))
+    s1 = np.sqrt(prob.sx**2 + (prob.length * prob.se) ** 2 + _VAR_FLOOR)
+    s2 = np.sqrt(prob.se**2 + _VAR_FLOOR)
+    out = np.zeros((prob.n, 3))
+    out[:, 0] = 1.0 / s1
+    out[:, 2] = 1.0 / s2
+    return out * prob.sqrt_w[:, None]
+
+
+def _refine_general(prob, u, p, k, c, wh):
+    f_scale = _resolve_f_scale(prob, u, p, k, c, wh)
+    b1, b2 = _basis(u)
+    t0 = np.array([0.0, 0.0, p @ b1, p @ b2, k, c])
+    fun, jac = _residuals_general(prob, wh, u, b1, b2)
+    if prob.loss == "linear" and 2 * prob.n >= 6:
+        sol = least_squares(fun, t0, jac=jac, method="lm", x_scale="jac", xtol=1e-10, ftol=1e-10)
+    else:
+        sol = least_squares(
+            fun,
+            t0,
+            jac=jac,
+            method="trf",
+            loss=prob.loss,
+            f_scale=f_scale,
+            x_scale="jac",
+            xtol=1e-10,
+            ftol=1e-10,
+        )
+    t = sol.x
+    v = u + t[0] * b1 + t[1] * b2
+    u = v / np.linalg.norm(v)
+    p = t[2] * b1 + t[3] * b2
+    p = p - (p @ u) * u
+    k, c = float(t[4]), float(t[5])
+    if prob.sx is not None:
+        wh = _whitening_general(prob, u, p)
+    return u, p, k, c, wh
+
+
+def _resolve_f_scale(prob, u, p, k, c, wh) -> float:
+    if prob.f_scale is not None:
+        return prob.f_scale
+    if prob.sx is not None or prob.loss == "linear":
+        return 2.0
+    b1, b2 = _basis(u)
+    fun, _ = _residuals_general(prob, wh, u, b1, b2)
+    r = fun(np.array([0.0, 0.0, p @ b1, p @ b2, k, c]))
+    mad = float(np.median(np.abs(r)))
+    return max(2.0 * 1.4826 * mad, 1e-9)
+
+
+def _reorient(prob, u, p, k, c) -> bool:
+    """Flip the edges whose flipped version fits better; True if any was flipped."""
+    e = prob.e
+    r1 = np.einsum("ij,ij->i", prob.x - p, _cross(e, u[None, :]))
+    r2 = e @ u
+    keep = (r1 - k) ** 2 + (prob.length * (r2 - c)) ** 2
+    flip = (r1 + k) ** 2 + (prob.length * (r2 + c)) ** 2
+    bad = flip < keep * 0.25
+    if bad.any():
+        prob.e = np.where(bad[:, None], -e, e)
+        return True
+    return False
+
+
+def _robust_weights(r: np.ndarray, loss: str, f_scale: float) -> np.ndarray:
+    """IRLS weights rho'(z), z = (r / f_scale)^2, of scipy's losses."""
+    z = (r / f_scale) ** 2
+    if loss == "soft_l1":
+        return 1.0 / np.sqrt(1.0 + z)
+    if loss == "huber":
+        return np.where(z <= 1.0, 1.0, 1.0 / np.sqrt(np.maximum(z, 1.0)))
+    if loss == "cauchy":
+        return 1.0 / (1.0 + z)
+    return np.ones_like(r)
+
+
+def _covariance_local(prob, fun, jac, t, n_params, f_scale):
+    """(cov, cond, rms-free) of the local parameters from the Jacobian at the solution."""
+    r = fun(t)
+    jm = jac(t)
+    rho = _robust_weights(r, prob.loss, f_scale)
+    jw = jm * np.sqrt(rho)[:, None]
+    col = np.linalg.norm(jw, axis=0)
+    if not (col > 0).all():
+        return None, math.inf
+    s = np.linalg.svd(jw / col, compute_uv=False)
+    cond = float(s[0] / s[-1]) if s[-1] > 0 else math.inf
+    if not cond < DEGENERATE_CONDITION:
+        return None, math.inf
+    info = jw.T @ jw
+    cov = np.linalg.inv(info)
+    if prob.sx is None:
+        dof = r.size - n_params
+        if dof <= 0:
+            return "nodof", cond
+        cov = cov * float(np.sum(rho * r * r)) / dof
+    return cov, cond
+
+
+def _finish_general(prob, u, p, k, c, wh) -> AxisEstimate:
+    b1, b2 = _basis(u)
+    t = np.array([0.0, 0.0, p @ b1, p @ b2, k, c])
+    fun, jac = _residuals_general(prob, wh, u, b1, b2)
+    f_scale = _resolve_f_scale(prob, u, p, k, c, wh)
+    cov_local, cond = _covariance_local(prob, fun, jac, t, 6, f_scale)
+    if cov_local is None:
+        return degenerate_estimate("3d", prob.n, planar=False)
+    sin_t = math.sqrt(max(1.0 - c * c, 1e-300))
+    d = abs(k) / sin_t
+    # Geometric distance residual: (r1 - k) / sin(theta).
+    r1 = np.einsum("ij,ij->i", prob.x - p, _cross(prob.e, u[None, :])) - k
+    rms = float(np.sqrt(np.mean(r1 * r1))) / sin_t
+    # Jacobian of (point, direction, distance) w.r.t. (alpha, beta, s1, s2, k, c).
+    q = p + prob.centre
+    g = np.zeros((7, 6))
+    g[0:3, 0] = -(q @ b1) * u - (q @ u) * b1
+    g[0:3, 1] = -(q @ b2) * u - (q @ u) * b2
+    g[0:3, 2] = b1
+    g[0:3, 3] = b2
+    g[3:6, 0] = b1
+    g[3:6, 1] = b2
+    g[6, 4] = math.copysign(1.0, k) / sin_t
+    g[6, 5] = abs(k) * c / sin_t**3
+    return _assemble(prob, u, q, d, cov_local, g, cond, rms, "3d")
+
+
+def _assemble(prob, u, q, d, cov_local, g, cond, rms, method) -> AxisEstimate:
+    direction, sign = canonical_direction(u)
+    point = q - (q @ u) * u
+    if isinstance(cov_local, str):
+        cov = None
+        pos_std = ang_std = math.inf
+    else:
+        g = g.copy()
+        g[3:6] *= sign
+        cov = g @ cov_local @ g.T
+        cov = 0.5 * (cov + cov.T)
+        pos_std, ang_std = stds_from_covariance(cov, direction)
+    return AxisEstimate(
+        point=point,
+        direction=direction,
+        distance=float(d),
+        covariance=cov,
+        position_std=pos_std,
+        angle_std=ang_std,
+        residual_rms=rms,
+        n_used=prob.n,
+        degenerate=False,
+        condition_number=cond,
+        method=method,
+    )
+
+
+# --------------------------------------------------------------------------- parallel case
+
+
+def _whitening_parallel(prob: _Problem) -> np.ndarray:
+    """(N, 2) scale factors of (radial, misalignment) residuals."""
+    out = np.empty((prob.n, 2))
+    if prob.sx is None:
+        out[:, 0] = 1.0
+        out[:, 1] = prob.length
+    else:
+        out[:, 0] = 1.0 / np.sqrt(prob.sx**2 + _VAR_FLOOR)
+        out[:, 1] = 1.0 / np.sqrt(prob.se**2 + _VAR_FLOOR)
+    return out * prob.sqrt_w[:, None]
+
+
+def _residuals_parallel(prob, wh, u0, b1, b2):
+    x, e, n = prob.x, prob.e, prob.n
+
+    def unpack(t):
+        v = u0 + t[0] * b1 + t[1] * b2
+        nv = math.sqrt(float(v @ v))
+        return v / nv, nv, t[2] * b1 + t[3] * b2
+
+    def fun(t):
+        u, _, p = unpack(t)
+        wv = x - p
+        wp = wv - (wv @ u)[:, None] * u
+        rho = np.sqrt(np.einsum("ij,ij->i", wp, wp))
+        exu = _cross(e, u[None, :])
+        out = np.empty(3 * n)
+        out[:n] = wh[:, 0] * (rho - t[4])
+        out[n : 2 * n] = wh[:, 1] * (exu @ b1)
+        out[2 * n :] = wh[:, 1] * (exu @ b2)
+        return out
+
+    def jac(t):
+        u, nv, p = unpack(t)
+        ju = (np.eye(3) - np.outer(u, u)) / nv @ np.column_stack([b1, b2])
+        wv = x - p
+        along = wv @ u
+        wp = wv - along[:, None] * u
+        rho = np.maximum(np.sqrt(np.einsum("ij,ij->i", wp, wp)), 1e-300)
+        unit = wp / rho[:, None]
+        out = np.zeros((3 * n, 5))
+        out[:n, 0:2] = (-(along[:, None]) * unit) @ ju
+        out[:n, 2] = -(unit @ b1)
+        out[:n, 3] = -(unit @ b2)
+        out[:n, 4] = -1.0
+        # d/du of (e x u) . b = u . (b x e)
+        out[n : 2 * n, 0:2] = _cross(np.broadcast_to(b1, e.shape), e) @ ju
+        out[2 * n :, 0:2] = _cross(np.broadcast_to(b2, e.shape), e) @ ju
+        out[:n] *= wh[:, 0:1]
+        out[n:] *= np.concatenate([wh[:, 1:2], wh[:, 1:2]])
+        return out
+
+    return fun, jac
+
+
+def _fit_parallel(prob: _Problem, mean_dir: np.ndarray, tol: float) -> AxisEstimate:
+    e = prob.e
+    prob.e = np.where((e @ mean_dir < 0)[:, None], -e, e)
+    u = mean_dir
+    b1, b2 = _basis(u)
+    # Circle through the contact points projected on the plane normal to the axis
+    # (algebraic fit: x^2 + y^2 = 2 a x + 2 b y + c0).
+    px = prob.x @ b1
+    py = prob.x @ b2
+    a = np.column_stack([2.0 * px, 2.0 * py, np.ones(prob.n)])
+    rhs = px * px + py * py
+    col = np.linalg.norm(a, axis=0)
+    if not (col > 0).all():
+        return degenerate_estimate("3d-parallel", prob.n, planar=False)
+    s = np.linalg.svd(a / col, compute_uv=False)
+    if s[2] <= s[0] / DEGENERATE_CONDITION:
+        return degenerate_estimate("3d-parallel", prob.n, planar=False)
+    sol = np.linalg.lstsq(a, rhs, rcond=None)[0]
+    d = math.sqrt(max(sol[2] + sol[0] ** 2 + sol[1] ** 2, 0.0))
+    t0 = np.array([0.0, 0.0, sol[0], sol[1], d])
+    wh = _whitening_parallel(prob)
+    fun, jac = _residuals_parallel(prob, wh, u, b1, b2)
+    if prob.f_scale is not None:
+        f_scale = prob.f_scale
+    elif prob.sx is not None:
+        f_scale = 2.0
+    else:
+        f_scale = max(2.0 * 1.4826 * float(np.median(np.abs(fun(t0)))), 1e-9)
+    if prob.loss == "linear" and 3 * prob.n >= 5:
+        res = least_squares(fun, t0, jac=jac, method="lm", x_scale="jac", xtol=1e-10, ftol=1e-10)
+    else:
+        res = least_squares(
+            fun,
+            t0,
+            jac=jac,
+            method="trf",
+            loss=prob.loss,
+            f_scale=f_scale,
+            x_scale="jac",
+            xtol=1e-10,
+            ftol=1e-10,
+        )
+    t = res.x
+    v = u + t[0] * b1 + t[1] * b2
+    u = v / np.linalg.norm(v)
+    p = t[2] * b1 + t[3] * b2
+    p = p - (p @ u) * u
+    d = abs(float(t[4]))
+    b1, b2 = _basis(u)
+    fun, jac = _residuals_parallel(prob, wh, u, b1, b2)
+    t = np.array([0.0, 0.0, p @ b1, p @ b2, d])
+    cov_local, cond = _covariance_local(prob, fun, jac, t, 5, f_scale)
+    if cov_local is None:
+        return degenerate_estimate("3d-parallel", prob.n, planar=False)
+    wv = prob.x - p
+    wp = wv - (wv @ u)[:, None] * u
+    rad = np.sqrt(np.einsum("ij,ij->i", wp, wp)) - d
+    rms = float(np.sqrt(np.mean(rad * rad)))
+    q = p + prob.centre
+    g = np.zeros((7, 5))
+    g[0:3, 0] = -(q @ b1) * u - (q @ u) * b1
+    g[0:3, 1] = -(q @ b2) * u - (q @ u) * b2
+    g[0:3, 2] = b1
+    g[0:3, 3] = b2
+    g[3:6, 0] = b1
+    g[3:6, 1] = b2
+    g[6, 4] = 1.0
+    del tol
+    return _assemble(prob, u, q, d, cov_local, g, cond, rms, "3d-parallel")

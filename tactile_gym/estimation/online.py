@@ -1,0 +1,255 @@
+"""Online joint-axis estimation: add one tactile measurement at a time.
+
+Conventions: world frame, metres, radians. Points are contact points on the link's edge,
+edges its direction there (any sign; each new edge is oriented like the best-aligned of
+the previous few, see :func:`tactile_gym.estimation.fit3d.orient_edges`), ``point_std`` the
+contact-point std per axis (m) and ``edge_std`` the edge-direction std (rad).
+
+Weighting (DESIGN.md 2.5: the fit is badly conditioned over small rotations). Each
+measurement is weighted by the inverse of its predicted residual variance,
+``point_std^2 + (lever * edge_std)^2``, where the lever is the distance along the edge from
+the contact point to the foot of the perpendicular from the axis. The lever needs an axis:
+the previous estimate provides it (two passes when there is none yet).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tactile_gym.estimation.axis import AxisEstimate
+from tactile_gym.estimation.fit3d import LOSSES, SIGN_LOOKBACK, _fit
+from tactile_gym.estimation.fits import _planar_fit, planar_residual_variance
+
+__all__ = ["JointAxisEstimator"]
+
+MODES = ("planar", "3d")
+
+# Edge directions closer than this (or 3 edge stds) count as the same direction when
+# checking identifiability, rad.
+_DISTINCT_TOL = math.radians(0.5)
+
+
+class JointAxisEstimator:
+    """Incremental joint-axis estimate from tactile measurements.
+
+    ``estimate()`` returns None until the axis is identifiable:
+
+    * ``"planar"`` (axis along world z, paper eq. 16-21): at least ``min_measurements``
+      (default 3) measurements with at least three distinct edge directions in the x-y plane;
+    * ``"3d"`` (any axis, see :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`): at least
+      ``min_measurements`` (default 4) measurements with at least three distinct edge
+      directions, or edges all parallel (the axis parallel to the edge, eq. 9-10);
+
+    and the fit is not degenerate. Directions are distinct when more than
+    ``max(0.5 deg, 3 edge_std)`` apart.
+
+    The planar mode is a weighted linear least-squares fit (no robust loss: ``loss`` only
+    applies to the 3d mode). Results are cached; ``estimate()`` refits only after ``add``.
+
+    Args:
+        mode: ``"planar"`` or ``"3d"``.
+        loss: robust loss of the 3d fit, one of ``LOSSES``.
+        min_measurements: measurements needed before a first estimate (>= 3).
+    """
+
+    def __init__(
+        self, mode: str = "planar", loss: str = "soft_l1", min_measurements: int | None = None
+    ) -> None:
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        if loss not in LOSSES:
+            raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
+        default_min = 3 if mode == "planar" else 4
+        if min_measurements is None:
+            min_measurements = default_min
+        if int(min_measurements) != min_measurements or min_measurements < 3:
+            raise ValueError(f"min_measurements must be an integer >= 3, got {min_measurements!r}")
+        self.mode = mode
+        self.loss = loss
+        self.min_measurements = int(min_measurements)
+        self._dim = 2 if mode == "planar" else 3
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every measurement and the cached estimate."""
+        cap = 16
+        self._n = 0
+        self._points = np.empty((cap, 3))
+        self._edges = np.empty((cap, 3))
+        self._point_std = np.empty(cap)
+        self._edge_std = np.empty(cap)
+        self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
+        self._cached: AxisEstimate | None = None
+        self._stale = False
+        self._last: AxisEstimate | None = None
+
+    @property
+    def n_measurements(self) -> int:
+        """Number of measurements added since the last reset."""
+        return self._n
+
+    def _view(self, a: np.ndarray) -> np.ndarray:
+        v = a[: self._n]
+        v.flags.writeable = False
+        return v
+
+    @property
+    def points(self) -> np.ndarray:
+        """(N, 3) contact points added, world frame, m (read-only)."""
+        return self._view(self._points)
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(N, 3) unit edge directions as oriented for the fit (read-only; planar: z = 0)."""
+        return self._view(self._edges)
+
+    @property
+    def point_stds(self) -> np.ndarray:
+        """(N,) contact-point stds, m (read-only)."""
+        return self._view(self._point_std)
+
+    @property
+    def edge_stds(self) -> np.ndarray:
+        """(N,) edge-direction stds, rad (read-only)."""
+        return self._view(self._edge_std)
+
+    def add(self, point: np.ndarray, edge: np.ndarray, point_std: float, edge_std: float) -> None:
+        """Add one measurement.
+
+        Args:
+            point: (3,) contact point, world frame, m ((2,) allowed in planar mode).
+            edge: (3,) edge direction, world frame, any length > 0 and any sign ((2,)
+                allowed in planar mode). In planar mode its z part is dropped.
+            point_std: contact-point std per axis, m, >= 0.
+            edge_std: edge-direction std, rad, >= 0.
+
+        Raises:
+            ValueError: on a malformed point or edge, a zero edge (planar: no x-y part),
+                or a negative or non-finite std.
+        """
+        x = np.asarray(point, dtype=float)
+        e = np.asarray(edge, dtype=float)
+        allowed = (2, 3) if self.mode == "planar" else (3,)
+        if x.ndim != 1 or x.shape[0] not in allowed:
+            raise ValueError(
+                f"point must have shape {' or '.join(f'({a},)' for a in allowed)}, got {x.shape}"
+            )
+        if e.ndim != 1 or e.shape[0] not in allowed:
+            raise ValueError(
+                f"edge must have shape {' or '.join(f'({a},)' for a in allowed)}, got {e.shape}"
+            )
+        xl = x.tolist()
+        el = e.tolist()
+        if not all(math.isfinite(v) for v in xl + el):
+            raise ValueError(f"point and edge must be finite, got {xl} and {el}")
+        sx = float(point_std)
+        se = float(edge_std)
+        if not (math.isfinite(sx) and sx >= 0):
+            raise ValueError(f"point_std must be finite and >= 0 m, got {point_std!r}")
+        if not (math.isfinite(se) and se >= 0):
+            raise ValueError(f"edge_std must be finite and >= 0 rad, got {edge_std!r}")
+        if self.mode == "planar":
+            el = [el[0], el[1], 0.0]
+        elif len(el) == 2:
+            el = [el[0], el[1], 0.0]
+        norm = math.sqrt(el[0] * el[0] + el[1] * el[1] + el[2] * el[2])
+        if norm <= 1e-12:
+            what = "an x-y part" if self.mode == "planar" else "a non-zero length"
+            raise ValueError(f"edge must have {what}, got {e.tolist()}")
+        el = [v / norm for v in el]
+        if len(xl) == 2:
+            xl.append(0.0)
+        n = self._n
+        if n == self._points.shape[0]:
+            self._grow()
+        # Orient like the best-aligned of the last few edges.
+        best = 0.0
+        for j in range(max(0, n - SIGN_LOOKBACK), n):
+            pe = self._edges[j]
+            dot = el[0] * pe[0] + el[1] * pe[1] + el[2] * pe[2]
+            if abs(dot) > abs(best):
+                best = dot
+        if best < 0.0:
+            el = [-v for v in el]
+        self._points[n] = xl
+        self._edges[n] = el
+        self._point_std[n] = sx
+        self._edge_std[n] = se
+        self._n = n + 1
+        if len(self._dirs) < 3:
+            tol = math.cos(max(_DISTINCT_TOL, 3.0 * se))
+            ev = self._edges[n]
+            if all(abs(float(ev @ d)) < tol for d in self._dirs):
+                self._dirs.append(ev.copy())
+        self._stale = True
+
+    def _grow(self) -> None:
+        cap = 2 * self._points.shape[0]
+        for name in ("_points", "_edges"):
+            old = getattr(self, name)
+            new = np.empty((cap, 3))
+            new[: self._n] = old[: self._n]
+            setattr(self, name, new)
+        for name in ("_point_std", "_edge_std"):
+            old = getattr(self, name)
+            new = np.empty(cap)
+            new[: self._n] = old[: self._n]
+            setattr(self, name, new)
+
+    def estimate(self) -> AxisEstimate | None:
+        """The current axis estimate, or None while the axis is not identifiable."""
+        if not self._stale:
+            return self._cached
+        self._stale = False
+        self._cached = self._refit()
+        if self._cached is not None:
+            self._last = self._cached
+        return self._cached
+
+    def _refit(self) -> AxisEstimate | None:
+        n = self._n
+        if n < self.min_measurements:
+            return None
+        if self.mode == "planar":
+            if len(self._dirs) < 3:
+                return None
+            return self._refit_planar()
+        if len(self._dirs) == 2:
+            return None
+        est = _fit(
+            self._points[:n].copy(),
+            self._edges[:n].copy(),
+            np.ones(n),
+            self._point_std[:n].copy(),
+            self._edge_std[:n].copy(),
+            self.loss,
+            None,
+            math.radians(1.0),
+        )
+        if est.degenerate:
+            return None
+        if len(self._dirs) < 3 and est.method != "3d-parallel":
+            return None
+        return est
+
+    def _refit_planar(self) -> AxisEstimate | None:
+        n = self._n
+        x = self._points[:n]
+        e = self._edges[:n]
+        sx = self._point_std[:n]
+        se = self._edge_std[:n]
+        prev = self._last
+        passes = 1
+        if prev is None or prev.degenerate:
+            prev = _planar_fit(x, e, None, resolve_signs=False)
+            passes = 2
+        for _ in range(passes):
+            if prev is None or prev.degenerate:
+                return None
+            var = planar_residual_variance(x[:, :2], e[:, :2], prev.point[:2], sx, se)
+            prev = _planar_fit(x, e, 1.0 / var, resolve_signs=False)
+        if prev is None or prev.degenerate:
+            return None
+        return prev

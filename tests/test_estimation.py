@@ -1,0 +1,442 @@
+"""Joint-axis estimation: exact recovery, the paper's Monte Carlo, robustness, calibration.
+
+The ground truth is generated here: an edge line of a link rotating about a known axis,
+with the contact point sliding along the edge between measurements.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from tactile_gym.estimation import (
+    AxisEstimate,
+    JointAxisEstimator,
+    axis_error,
+    fit_axis_3d,
+    fit_axis_planar,
+    fit_axis_simple,
+)
+
+PAPER_AXIS = np.array([0.017, 0.105, 0.0])  # m, Table I
+SIGMA_X = 1e-3  # m
+SIGMA_E = math.radians(1.0)  # rad
+
+
+def _rot(u: np.ndarray, angle: float) -> np.ndarray:
+    u = u / np.linalg.norm(u)
+    k = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+
+
+def _perturb_edge(rng: np.random.Generator, e: np.ndarray, sigma: float) -> np.ndarray:
+    a = np.array([1.0, 0.0, 0.0]) if abs(e[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    b1 = np.cross(e, a)
+    b1 /= np.linalg.norm(b1)
+    b2 = np.cross(e, b1)
+    out = e + rng.normal(0, sigma) * b1 + rng.normal(0, sigma) * b2
+    return out / np.linalg.norm(out)
+
+
+def make_edges_3d(
+    rng: np.random.Generator,
+    axis_point: np.ndarray,
+    axis_dir: np.ndarray,
+    edge_dir: np.ndarray,
+    distance: float,
+    n: int = 8,
+    sweep: float = math.pi / 2,
+    start: float = 0.05,
+    slide: float = 0.01,
+    sigma_x: float = 0.0,
+    sigma_e: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Contact points and edges of a link edge rotating about an axis (3D noise)."""
+    u = axis_dir / np.linalg.norm(axis_dir)
+    e0 = edge_dir / np.linalg.norm(edge_dir)
+    normal = np.cross(u, e0)
+    if np.linalg.norm(normal) < 1e-9:  # edge parallel to the axis
+        normal = np.cross(u, [1.0, 0.0, 0.0])
+        if np.linalg.norm(normal) < 1e-9:
+            normal = np.cross(u, [0.0, 1.0, 0.0])
+    normal /= np.linalg.norm(normal)
+    foot = axis_point + distance * normal
+    pts, eds = [], []
+    for i, angle in enumerate(np.linspace(0.0, sweep, n)):
+        r = _rot(u, angle)
+        x = axis_point + r @ (foot - axis_point + (start + slide * i) * e0)
+        e = r @ e0
+        pts.append(x + rng.normal(0, sigma_x, 3) if sigma_x else x)
+        eds.append(_perturb_edge(rng, e, sigma_e) if sigma_e else e)
+    return np.array(pts), np.array(eds)
+
+
+def make_planar(
+    rng: np.random.Generator,
+    n: int = 4,
+    sweep: float = math.pi / 2,
+    slide: float = 0.02,
+    sigma_x: float = SIGMA_X,
+    sigma_e: float = SIGMA_E,
+    distance: float = 0.01,
+    start: float = 0.03,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's setting: a grip edge on the table turning about (17, 105) mm."""
+    phi = np.linspace(0.0, sweep, n)
+    t = start + slide * np.arange(n)
+    c, s = np.cos(phi), np.sin(phi)
+    # edge along (cos phi, sin phi), offset by distance along its normal (-sin, cos)
+    x = PAPER_AXIS[0] + t * c - distance * s + rng.normal(0, sigma_x, n)
+    y = PAPER_AXIS[1] + t * s + distance * c + rng.normal(0, sigma_x, n)
+    ang = phi + rng.normal(0, sigma_e, n)
+    return np.column_stack([x, y]), np.column_stack([np.cos(ang), np.sin(ang)])
+
+
+def _position_error(est: AxisEstimate) -> float:
+    return axis_error(est, PAPER_AXIS, [0, 0, 1])[0]
+
+
+# ------------------------------------------------------------------------ exact recovery
+
+
+def test_planar_exact_recovery() -> None:
+    pts, eds = make_planar(np.random.default_rng(0), n=5, sigma_x=0.0, sigma_e=0.0)
+    est = fit_axis_planar(pts, eds)
+    assert not est.degenerate
+    np.testing.assert_allclose(est.point, PAPER_AXIS, atol=1e-9)
+    assert est.distance == pytest.approx(0.01, abs=1e-9)
+    np.testing.assert_array_equal(est.direction, [0.0, 0.0, 1.0])
+
+
+def test_planar_numpy_and_loop_paths_agree() -> None:
+    from tactile_gym.estimation import fits
+
+    pts, eds = make_planar(np.random.default_rng(1), n=20)
+    w = np.random.default_rng(2).uniform(0.5, 2.0, 20)
+    fast = fits._planar_fit(pts, eds, w, True)
+    saved = fits._PLANAR_NUMPY_MIN_N
+    try:
+        fits._PLANAR_NUMPY_MIN_N = 10_000
+        loop = fits._planar_fit(pts, eds, w, True)
+    finally:
+        fits._PLANAR_NUMPY_MIN_N = saved
+    np.testing.assert_allclose(fast.point, loop.point, atol=1e-12)
+    np.testing.assert_allclose(fast.covariance, loop.covariance, atol=1e-15)
+
+
+def test_planar_edge_sign_is_resolved_by_continuity() -> None:
+    pts, eds = make_planar(np.random.default_rng(0), n=5, sigma_x=0.0, sigma_e=0.0)
+    flipped = eds * np.array([1, -1, 1, -1, -1])[:, None]
+    est = fit_axis_planar(pts, flipped)
+    np.testing.assert_allclose(est.point, PAPER_AXIS, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "axis_dir",
+    [[0, 0, 1], [0.3, -0.2, 1.0], [1.0, 0.5, 0.2], [0, 1, 0], [-1, 1, 1]],
+)
+@pytest.mark.parametrize("edge_tilt", [0.0, 0.5])
+def test_3d_exact_recovery_tilted_axes(axis_dir: list[float], edge_tilt: float) -> None:
+    u = np.array(axis_dir, float)
+    u /= np.linalg.norm(u)
+    p = np.array([0.017, 0.105, 0.03])
+    e0 = np.cross(u, [0.3, 0.9, 0.1])
+    e0 = e0 / np.linalg.norm(e0) + edge_tilt * u  # not perpendicular when tilted
+    pts, eds = make_edges_3d(np.random.default_rng(0), p, u, e0, 0.02)
+    est = fit_axis_3d(pts, eds)
+    assert est.method == "3d" and not est.degenerate
+    pos, ang = axis_error(est, p, u)
+    assert pos < 1e-9 and ang < 1e-9
+    assert est.distance == pytest.approx(0.02, abs=1e-9)
+    assert abs(est.point @ est.direction) < 1e-12
+    assert est.direction[np.argmax(np.abs(est.direction))] > 0
+
+
+def test_3d_exact_recovery_edges_through_the_axis() -> None:
+    u = np.array([0.0, 0.0, 1.0])
+    p = np.array([0.2, -0.1, 0.0])
+    pts, eds = make_edges_3d(np.random.default_rng(0), p, u, np.array([1.0, 0.0, 0]), 0.0)
+    est = fit_axis_3d(pts, eds)
+    pos, ang = axis_error(est, p, u)
+    assert pos < 1e-9 and ang < 1e-9 and est.distance < 1e-9
+
+
+def test_3d_parallel_case_exact() -> None:
+    """A door: the free edge is parallel to the vertical hinge."""
+    u = np.array([0.0, 0.0, 1.0])
+    p = np.array([0.1, 0.2, 0.0])
+    pts, eds = make_edges_3d(np.random.default_rng(0), p, u, u, 0.03, slide=0.005)
+    est = fit_axis_3d(pts, eds)
+    assert est.method == "3d-parallel"
+    pos, ang = axis_error(est, p, u)
+    assert pos < 1e-9 and ang < 1e-9
+    assert est.distance == pytest.approx(0.03, abs=1e-9)
+
+
+def test_3d_parallel_case_noisy() -> None:
+    rng = np.random.default_rng(3)
+    u = np.array([0.0, 0.0, 1.0])
+    p = np.array([0.1, 0.2, 0.0])
+    pts, eds = make_edges_3d(rng, p, u, u, 0.3, n=10, slide=0.01, sigma_x=SIGMA_X, sigma_e=SIGMA_E)
+    est = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E)
+    assert est.method == "3d-parallel"
+    pos, ang = axis_error(est, p, u)
+    assert pos < 5 * est.position_std + 1e-3 and ang < math.radians(2)
+
+
+# ------------------------------------------------------------------ paper's Monte Carlo
+
+
+def test_paper_monte_carlo_sliding_contact() -> None:
+    """Table I: with sliding the proposed method stays accurate, the simple one does not."""
+    rng = np.random.default_rng(2010)
+    prop, simple = [], []
+    for _ in range(500):
+        pts, eds = make_planar(rng)
+        prop.append(_position_error(fit_axis_planar(pts, eds)))
+        simple.append(_position_error(fit_axis_simple(pts)))
+    assert np.median(prop) <= 5e-3
+    assert np.median(simple) >= 15e-3
+
+
+def test_paper_monte_carlo_no_sliding_simple_is_good() -> None:
+    rng = np.random.default_rng(7)
+    errs = [
+        _position_error(fit_axis_simple(make_planar(rng, slide=0.0, start=0.06)[0]))
+        for _ in range(500)
+    ]
+    assert np.median(errs) <= 5e-3
+
+
+def test_planar_nees_is_calibrated() -> None:
+    """Position NEES (p, q: 2 dof) of the weighted fit averages 2 within 30 %."""
+    rng = np.random.default_rng(11)
+    nees = []
+    for _ in range(1000):
+        pts, eds = make_planar(rng)
+        est = fit_axis_planar(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E)
+        err = est.point[:2] - PAPER_AXIS[:2]
+        nees.append(err @ np.linalg.solve(est.covariance[:2, :2], err))
+    assert abs(np.mean(nees) - 2.0) <= 0.3 * 2.0
+
+
+def test_online_planar_matches_paper_bound_and_nees() -> None:
+    rng = np.random.default_rng(5)
+    errs, nees = [], []
+    for _ in range(300):
+        pts, eds = make_planar(rng)
+        est = JointAxisEstimator("planar")
+        for x, e in zip(pts, eds, strict=True):
+            est.add(x, e, SIGMA_X, SIGMA_E)
+        result = est.estimate()
+        errs.append(_position_error(result))
+        err = result.point[:2] - PAPER_AXIS[:2]
+        nees.append(err @ np.linalg.solve(result.covariance[:2, :2], err))
+    assert np.median(errs) <= 5e-3
+    assert abs(np.mean(nees) - 2.0) <= 0.3 * 2.0
+
+
+def _tilted_case(rng, sigma_x=SIGMA_X, sigma_e=SIGMA_E, n=12):
+    u = np.array([0.3, -0.2, 1.0])
+    u /= np.linalg.norm(u)
+    p = np.array([0.017, 0.105, 0.03])
+    e0 = np.cross(u, [0.3, 0.9, 0.1])
+    e0 /= np.linalg.norm(e0)
+    pts, eds = make_edges_3d(
+        rng,
+        p,
+        u,
+        e0,
+        0.02,
+        n=n,
+        sweep=math.radians(120),
+        start=0.03,
+        slide=0.005,
+        sigma_x=sigma_x,
+        sigma_e=sigma_e,
+    )
+    return p, u, pts, eds
+
+
+def test_3d_nees_is_calibrated() -> None:
+    """NEES of (point perpendicular to the axis, direction): 4 dof, mean within 30 %."""
+    rng = np.random.default_rng(12)
+    nees = []
+    for _ in range(200):
+        p, u, pts, eds = _tilted_case(rng)
+        est = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E)
+        d = est.direction * np.sign(est.direction @ u)
+        true_point = p - (p @ d) * d  # the true axis' point in the estimate's gauge
+        true_point = true_point - ((true_point - est.point) @ d) * d
+        err = np.concatenate(
+            [est.point - true_point, est.direction - u * np.sign(est.direction @ u)]
+        )
+        cov = est.covariance[:6, :6]
+        vals, vecs = np.linalg.eigh(cov)
+        keep = vals > vals.max() * 1e-10
+        z = vecs[:, keep].T @ err
+        nees.append(float(np.sum(z * z / vals[keep])))
+        assert keep.sum() == 4
+    assert abs(np.mean(nees) - 4.0) <= 0.3 * 4.0
+
+
+# ------------------------------------------------------------------------- robustness
+
+
+def test_robust_3d_fit_survives_wild_edges() -> None:
+    rng = np.random.default_rng(21)
+    robust_pos, linear_pos = [], []
+    for _ in range(30):
+        p, u, pts, eds = _tilted_case(rng, n=16)
+        wild = rng.choice(16, size=4, replace=False)
+        eds[wild] = rng.normal(size=(4, 3))
+        kw = dict(point_std=SIGMA_X, edge_std=SIGMA_E)
+        robust_pos.append(axis_error(fit_axis_3d(pts, eds, loss="soft_l1", **kw), p, u)[0])
+        linear_pos.append(axis_error(fit_axis_3d(pts, eds, loss="linear", **kw), p, u)[0])
+    assert np.median(robust_pos) <= 5e-3
+    assert np.median(robust_pos) < 0.5 * np.median(linear_pos)
+
+
+# ------------------------------------------------------------------------ degenerate data
+
+
+def _check_flagged(est: AxisEstimate) -> None:
+    assert est.degenerate
+    assert est.covariance is None
+    assert math.isinf(est.position_std)
+    assert axis_error(est, PAPER_AXIS, [0, 0, 1]) == (math.inf, math.pi / 2)
+
+
+@pytest.mark.parametrize(
+    "pts, eds",
+    [
+        (np.zeros((0, 2)), np.zeros((0, 2))),  # nothing
+        ([[0.0, 0.0], [0.1, 0.0]], [[1.0, 0.0], [0.0, 1.0]]),  # too few
+        ([[0.1, 0.2]] * 5, [[1.0, 0.0]] * 5),  # identical
+        ([[0.0, 0.0], [0.1, 0.1], [0.2, 0.5]], [[1.0, 0.0]] * 3),  # all parallel
+        ([[0.0, 0.0], [0.1, 0.1], [0.2, 0.5], [0, 1]], [[1, 0], [1, 0], [0, 1], [0, 1]]),
+        ([[0.0, 0.0, 0.0]] * 4, [[0.0, 0.0, 1.0]] * 4),  # edges along z: nothing usable
+    ],
+)
+def test_planar_degenerate_is_flagged(pts, eds) -> None:
+    _check_flagged(fit_axis_planar(np.array(pts, float), np.array(eds, float)))
+
+
+@pytest.mark.parametrize(
+    "pts",
+    [np.zeros((2, 2)), np.ones((5, 2)), np.column_stack([np.arange(5.0), 2 * np.arange(5.0)])],
+)
+def test_simple_degenerate_is_flagged(pts) -> None:
+    _check_flagged(fit_axis_simple(pts))
+
+
+@pytest.mark.parametrize(
+    "pts, eds",
+    [
+        (np.zeros((2, 3)), [[1.0, 0, 0], [0, 1.0, 0]]),  # too few
+        ([[0.1, 0.2, 0.3]] * 6, [[1.0, 0.0, 0.0]] * 6),  # identical
+        ([[0.0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0]], [[0, 0, 1.0]] * 4),  # collinear ||
+        (
+            [[0.0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0, 0.1, 0]],
+            [[1.0, 0, 0]] * 2 + [[0, 1.0, 0]] * 2,
+        ),
+    ],
+)
+def test_3d_degenerate_is_flagged(pts, eds) -> None:
+    est = fit_axis_3d(np.array(pts, float), np.array(eds, float))
+    assert est.degenerate
+    assert np.isnan(est.point).all() and math.isinf(est.position_std)
+
+
+def test_online_returns_none_until_identifiable() -> None:
+    est = JointAxisEstimator("planar")
+    assert est.estimate() is None
+    est.add([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 1e-3, 0.01)
+    est.add([0.05, 0.0, 0.0], [1.0, 0.0, 0.0], 1e-3, 0.01)
+    est.add([0.1, 0.01, 0.0], [-1.0, 0.001, 0.0], 1e-3, 0.01)  # same direction
+    assert est.estimate() is None
+    est.add([0.1, 0.1, 0.0], [0.0, 1.0, 0.0], 1e-3, 0.01)
+    assert est.estimate() is None  # two directions only
+    pts, eds = make_planar(np.random.default_rng(0), sigma_x=0, sigma_e=0)
+    est.reset()
+    assert est.n_measurements == 0 and est.points.shape == (0, 3)
+    for x, e in zip(pts, eds, strict=True):
+        est.add(x, e, 0.0, 0.0)
+    result = est.estimate()
+    assert result is not None and est.estimate() is result  # cached
+    np.testing.assert_allclose(result.point, PAPER_AXIS, atol=1e-9)
+    with pytest.raises(ValueError):
+        est.points[0, 0] = 1.0  # read-only
+
+
+def test_online_3d() -> None:
+    rng = np.random.default_rng(4)
+    p, u, pts, eds = _tilted_case(rng)
+    est = JointAxisEstimator("3d")
+    results = []
+    for x, e in zip(pts, eds * rng.choice([-1, 1], size=(len(eds), 1)), strict=True):
+        est.add(x, e, SIGMA_X, SIGMA_E)
+        results.append(est.estimate())
+    assert results[0] is None and results[2] is None
+    pos, ang = axis_error(results[-1], p, u)
+    assert pos < 5e-3 and ang < math.radians(3)
+    assert est.edges.shape == (len(pts), 3)
+
+
+# ----------------------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: fit_axis_planar(np.zeros((4, 4)), np.ones((4, 2))),
+        lambda: fit_axis_planar(np.zeros((4, 2)), np.ones((3, 2))),
+        lambda: fit_axis_planar([[0, 0], [1, np.nan], [0, 1]], np.ones((3, 2))),
+        lambda: fit_axis_planar(np.zeros((3, 2)), [[1, 0], [0, 0], [0, 1]]),
+        lambda: fit_axis_planar(np.zeros((3, 2)), np.ones((3, 2)), weights=[1, -1, 1]),
+        lambda: fit_axis_planar(np.zeros((3, 2)), np.ones((3, 2)), point_std=-1, edge_std=0.1),
+        lambda: fit_axis_planar(np.zeros((3, 2)), np.ones((3, 2)), point_std=1e-3),
+        lambda: fit_axis_simple(np.zeros((3, 1))),
+        lambda: fit_axis_simple([[0, 0], [np.inf, 0], [1, 1]]),
+        lambda: fit_axis_3d(np.zeros((4, 2)), np.ones((4, 2))),
+        lambda: fit_axis_3d(np.zeros((4, 3)), np.ones((4, 3)), loss="l1"),
+        lambda: fit_axis_3d(np.zeros((4, 3)), np.ones((4, 3)), f_scale=-1.0),
+        lambda: fit_axis_3d(np.zeros((4, 3)), np.ones((4, 3)), point_std=1e-3, edge_std=-1),
+        lambda: fit_axis_3d(np.zeros((4, 3)), np.zeros((4, 3))),
+        lambda: JointAxisEstimator(mode="2d"),
+        lambda: JointAxisEstimator(loss="l2"),
+        lambda: JointAxisEstimator(min_measurements=2),
+        lambda: JointAxisEstimator().add([0, 0, 0], [1, 0, 0], -1e-3, 0.01),
+        lambda: JointAxisEstimator().add([0, 0, 0], [0, 0, 1], 1e-3, 0.01),
+        lambda: JointAxisEstimator().add([0, 0, np.nan], [1, 0, 0], 1e-3, 0.01),
+        lambda: JointAxisEstimator("3d").add([0, 0], [1, 0], 1e-3, 0.01),
+        lambda: axis_error(None, [0, 0], [0, 0, 1]),
+        lambda: axis_error(None, [0, 0, 0], [0, 0, 0]),
+    ],
+)
+def test_bad_input_raises_value_error(call) -> None:
+    with pytest.raises(ValueError):
+        call()
+
+
+def test_axis_error_ignores_direction_sign_and_uses_reference_point() -> None:
+    pts, eds = make_planar(np.random.default_rng(0), sigma_x=0, sigma_e=0)
+    est = fit_axis_planar(pts, eds)
+    pos, ang = axis_error(est, PAPER_AXIS + [0, 0, 5.0], [0, 0, -2.0], [0.5, 0.5, 0.1])
+    assert pos < 1e-9 and ang == 0.0
+    assert axis_error(None, PAPER_AXIS, [0, 0, 1]) == (math.inf, math.pi / 2)
+
+
+def test_import_without_pybullet() -> None:
+    code = (
+        "import sys; sys.modules['pybullet'] = None; sys.modules['torch'] = None\n"
+        "import tactile_gym.estimation as m\n"
+        "assert 'pybullet' not in [k for k, v in sys.modules.items() if v is not None]\n"
+        "print(m.fit_axis_planar.__name__)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
