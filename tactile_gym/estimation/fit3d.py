@@ -95,7 +95,10 @@ def fit_axis_3d(
         edge_std: edge-direction std (each of the two directions normal to the edge), rad;
             scalar or (N,). With ``point_std``.
         loss: ``"linear"`` (least squares) or a robust loss of scipy's least_squares:
-            ``"soft_l1"``, ``"huber"``, ``"cauchy"``.
+            ``"soft_l1"``, ``"huber"``, ``"cauchy"``. With a robust loss and N >= 6 a
+            RANSAC-style consensus over 3-line closed-form fits (fixed seed, adaptive
+            number of trials, at most 24) first removes wild measurements; ``n_used``
+            then counts the measurements kept.
         f_scale: residual level where the robust loss starts to bend, in standard
             deviations when stds are given (default 2), else in metres (default: 2 x a
             MAD-based noise estimate from the initial guess).
@@ -186,17 +189,39 @@ def _fit(x, e, w, sx, se, loss, f_scale, parallel_tol) -> AxisEstimate:
         if found is not None and not found[0].all():
             inliers, signs = found
             e = e * signs[:, None]
-            sub = _Problem(
-                x[inliers],
-                e[inliers],
-                w[inliers],
-                None if sx is None else sx[inliers],
-                None if se is None else se[inliers],
-                loss,
-                f_scale,
-            )
-            return _fit_general(sub)
+            est = _fit_subset(x, e, w, sx, se, loss, f_scale, inliers)
+            if est.degenerate:
+                return est
+            # Let back in what the minimal-set consensus rejected but the fit explains.
+            u = est.direction
+            pc = est.point - prob.centre
+            pc = pc - (pc @ u) * u
+            k, c = _invariants(prob.x, e, u, pc)
+            prob.e = e
+            again = _whitened_norms(prob, u, pc, k, c) < _CHI2_2DOF_99
+            if (again != inliers).any() and again.sum() >= 4:
+                est = _fit_subset(x, e, w, sx, se, loss, f_scale, again)
+            return est
     return _fit_general(prob)
+
+
+def _fit_subset(x, e, w, sx, se, loss, f_scale, mask) -> AxisEstimate:
+    sub = _Problem(
+        x[mask],
+        e[mask],
+        w[mask],
+        None if sx is None else sx[mask],
+        None if se is None else se[mask],
+        loss,
+        f_scale,
+    )
+    return _fit_general(sub)
+
+
+def _invariants(x, e, u, p) -> tuple[float, float]:
+    """Median reciprocal product k and angle cosine c of the edges (given orientation)."""
+    k = float(np.median(np.einsum("ij,ij->i", x - p, _cross(e, u[None, :]))))
+    return k, float(np.median(e @ u))
 
 
 # Squared whitened residual norm (2 dof) beyond which a measurement is an outlier: the
@@ -221,7 +246,10 @@ def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
     while len(triples) < _CONSENSUS_TRIALS:
         triples.append(tuple(gen.choice(n, size=3, replace=False).tolist()))
     best, best_key = None, None
-    for tri in triples[:_CONSENSUS_TRIALS]:
+    needed = _CONSENSUS_TRIALS
+    for trial, tri in enumerate(triples[:_CONSENSUS_TRIALS]):
+        if trial >= needed:
+            break
         idx = np.array(tri)
         if len(set(tri)) < 3:
             continue
@@ -243,6 +271,11 @@ def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
         key = (int(inl.sum()), -float(np.minimum(z, _CHI2_2DOF_99).sum()))
         if best_key is None or key > best_key:
             best, best_key, best_fit = inl, key, (u, p, k, c)
+            # Adaptive stop: enough trials for a 99 % chance of one all-inlier triple.
+            frac = min(best_key[0] / n, 1.0 - 1e-9)
+            needed = min(
+                _CONSENSUS_TRIALS, int(math.ceil(math.log(0.01) / math.log(1.0 - frac**3)))
+            )
     if best is None or best.sum() < 4:
         return None
     u, p, k, c = best_fit

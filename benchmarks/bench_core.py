@@ -1,0 +1,147 @@
+"""Speed of the core numpy/scipy paths: contact sensing, axis fits, online update.
+
+Run: ``python benchmarks/bench_core.py``. Prints a markdown table of microseconds per call
+(median over repeats, each repeat averaging several calls via timeit) with the targets.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import time
+import timeit
+
+import numpy as np
+
+from tactile_gym.estimation import JointAxisEstimator, fit_axis_3d, fit_axis_planar
+
+SIGMA_X = 1e-3  # m
+SIGMA_E = math.radians(1.0)  # rad
+REPEATS = 15
+
+
+def _rot(u: np.ndarray, angle: float) -> np.ndarray:
+    k = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+
+
+def _measurements(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A link edge turning 120 degrees about a tilted axis, contact sliding along it."""
+    u = np.array([0.3, -0.2, 1.0])
+    u /= np.linalg.norm(u)
+    p = np.array([0.017, 0.105, 0.03])
+    e0 = np.cross(u, [0.3, 0.9, 0.1])
+    e0 /= np.linalg.norm(e0)
+    foot = p + 0.02 * np.cross(u, e0)
+    pts, eds = [], []
+    for i, a in enumerate(np.linspace(0, math.radians(120), n)):
+        r = _rot(u, a)
+        pts.append(p + r @ (foot - p + (0.03 + 0.005 * i) * e0) + rng.normal(0, SIGMA_X, 3))
+        e = r @ e0 + rng.normal(0, SIGMA_E, 3)
+        eds.append(e / np.linalg.norm(e))
+    return np.array(pts), np.array(eds)
+
+
+def _planar(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's setting: axis (17, 105) mm, 90 degrees, contact sliding 20 mm a step."""
+    phi = np.linspace(0, math.pi / 2, n)
+    t = 0.03 + 0.02 * np.arange(n) * 4 / n
+    x = 0.017 + t * np.cos(phi) - 0.01 * np.sin(phi) + rng.normal(0, SIGMA_X, n)
+    y = 0.105 + t * np.sin(phi) + 0.01 * np.cos(phi) + rng.normal(0, SIGMA_X, n)
+    a = phi + rng.normal(0, SIGMA_E, n)
+    return np.column_stack([x, y, np.zeros(n)]), np.column_stack(
+        [np.cos(a), np.sin(a), np.zeros(n)]
+    )
+
+
+def _per_call_us(fn, number: int) -> float:
+    times = timeit.repeat(fn, number=number, repeat=REPEATS)
+    return statistics.median(times) / number * 1e6
+
+
+def _online_us(mode: str, pts: np.ndarray, eds: np.ndarray, prefill: int) -> float:
+    """Median time of one add + estimate on an estimator already holding ``prefill``."""
+    samples = []
+    for r in range(REPEATS * 20):
+        est = JointAxisEstimator(mode)
+        for x, e in zip(pts[:prefill], eds[:prefill], strict=True):
+            est.add(x, e, SIGMA_X, SIGMA_E)
+        est.estimate()
+        x, e = pts[prefill + r % (len(pts) - prefill)], eds[prefill + r % (len(pts) - prefill)]
+        t0 = time.perf_counter()
+        est.add(x, e, SIGMA_X, SIGMA_E)
+        est.estimate()
+        samples.append(time.perf_counter() - t0)
+    return statistics.median(samples) * 1e6
+
+
+def main() -> None:
+    rng = np.random.default_rng(0)
+    rows: list[tuple[str, float | None, float, str]] = []
+
+    try:
+        from tactile_gym.sensing import estimate_contact
+    except ImportError:
+        estimate_contact = None
+    if estimate_contact is None:
+        rows.append(("estimate_contact (soft)", None, 30.0, "not available yet"))
+    else:
+        # 5 N pressed into the hemisphere, tilted across an edge; moment about the sensor.
+        f = np.array([0.8, 0.3, -5.0])
+        r = np.array([0.004, 0.002, 0.020 + 0.0155])
+        m = np.cross(r, f)
+        rows.append(
+            ("estimate_contact (soft)", _per_call_us(lambda: estimate_contact(f, m), 500), 30.0, "")
+        )
+
+    for n in (4, 32):
+        pts, eds = _planar(rng, n)
+        rows.append(
+            (
+                f"fit_axis_planar N={n}",
+                _per_call_us(lambda p=pts, e=eds: fit_axis_planar(p, e), 2000),
+                30.0,
+                "",
+            )
+        )
+    for n in (8, 32):
+        pts, eds = _measurements(rng, n)
+        for loss in ("linear", "soft_l1"):
+            target = 2000.0 if n == 32 else math.nan
+            us = _per_call_us(
+                lambda p=pts, e=eds, lo=loss: fit_axis_3d(
+                    p, e, point_std=SIGMA_X, edge_std=SIGMA_E, loss=lo
+                ),
+                20,
+            )
+            rows.append((f"fit_axis_3d N={n} loss={loss} (with stds)", us, target, ""))
+
+    pts, eds = _planar(rng, 16)
+    rows.append(
+        (
+            "JointAxisEstimator planar add+estimate (N=8)",
+            _online_us("planar", pts, eds, 7),
+            100.0,
+            "",
+        )
+    )
+    pts, eds = _measurements(rng, 16)
+    rows.append(
+        ("JointAxisEstimator 3d add+estimate (N=8)", _online_us("3d", pts, eds, 7), math.nan, "")
+    )
+
+    print("| call | us per call (median) | target us | result |")
+    print("| --- | ---: | ---: | --- |")
+    for name, us, target, note in rows:
+        if us is None:
+            print(f"| {name} | - | {target:.0f} | {note} |")
+            continue
+        if math.isnan(target):
+            verdict, tgt = "(no target)", "-"
+        else:
+            verdict, tgt = ("pass" if us <= target else "miss"), f"{target:.0f}"
+        print(f"| {name} | {us:.1f} | {tgt} | {verdict} |")
+
+
+if __name__ == "__main__":
+    main()
