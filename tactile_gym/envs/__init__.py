@@ -1,0 +1,1 @@
+"""Gymnasium environments. Everything here may import pybullet (through ``tactile_gym.sim``)."""

@@ -1,0 +1,47 @@
+"""Maps normalised actions to fingertip pose targets (world frame, metres, radians).
+
+An action ``a`` in [-1, 1]^6 asks for a translation ``a[:3] * max_translation`` along the
+world axes and a rotation ``a[3:] * max_rotation`` given as a rotation vector in the world
+frame. The rotation turns the fingertip about the centre of its hemisphere, so a pure rotation
+rocks the tip in place rather than swinging it round the sensor.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as p
+
+__all__ = ["DeltaPoseController"]
+
+
+class DeltaPoseController:
+    """Turns a normalised 6-D action into the next fingertip pose target.
+
+    Args:
+        max_translation: translation for an action of 1 on one axis, m.
+        max_rotation: rotation for an action of 1 on one axis, rad.
+        pivot: the point the rotation turns about, in the sensor frame, m.
+    """
+
+    def __init__(self, max_translation: float, max_rotation: float, pivot: np.ndarray) -> None:
+        self.max_translation = float(max_translation)
+        self.max_rotation = float(max_rotation)
+        self.pivot = np.asarray(pivot, dtype=float)
+
+    def target(
+        self, action: np.ndarray, position: np.ndarray, orientation: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pose target after applying ``action`` to the pose (position, xyzw quaternion)."""
+        translation = np.asarray(action[:3], dtype=float) * self.max_translation
+        rotvec = np.asarray(action[3:6], dtype=float) * self.max_rotation
+        angle = float(np.linalg.norm(rotvec))
+        if angle > 0.0:
+            delta = p.getQuaternionFromAxisAngle((rotvec / angle).tolist(), angle)
+        else:
+            delta = (0.0, 0.0, 0.0, 1.0)
+        rotation = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+        pivot_world = position + rotation @ self.pivot
+        delta_matrix = np.array(p.getMatrixFromQuaternion(delta)).reshape(3, 3)
+        new_position = pivot_world + delta_matrix @ (position - pivot_world) + translation
+        _, new_orientation = p.multiplyTransforms((0, 0, 0), delta, (0, 0, 0), orientation)
+        return new_position, np.asarray(new_orientation, dtype=float)
