@@ -12,7 +12,8 @@ itself, and the physics sets two rules (DESIGN.md 2.1-2.2, confirmed in ``ProbeS
 
 Each stop is therefore:
 
-1. ``approach``: move along the finger axis until the skin touches;
+1. ``approach``: move straight down until the skin touches (a vertical approach adds no
+   tilt of its own to the force);
 2. ``press``: advance to ``press_force``;
 3. ``shear``: slide the fingertip ``shear_distance`` across the edge (away from the link)
    while holding the force; the env's gate takes the measurement here;
@@ -150,15 +151,15 @@ class ScriptedProbePolicy:
         rotvec = np.zeros(3)
 
         if self.state == "approach":
-            move = axis * min(step, 0.001)
+            move = -Z * min(step, 0.001)
             if force > cfg.contact_force:
                 self.state = "press"
         elif self.state == "press":
-            move = axis * self._force_step(force)
+            move = -Z * self._force_step(force)
             if abs(force - cfg.press_force) < 0.5:
                 self.state, self._counter, self._shear_edges = "shear", 0, []
         elif self.state == "shear":
-            move = -h * cfg.shear_distance / cfg.shear_steps + axis * self._force_step(force)
+            move = -h * cfg.shear_distance / cfg.shear_steps - Z * self._force_step(force)
             self._collect_edge(contact)
             self._counter += 1
             if contact[0] > 0.5:

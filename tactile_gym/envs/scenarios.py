@@ -21,7 +21,14 @@ from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.sim import ObjectConfig
 from tactile_gym.sim.config import FAMILIES
 
-__all__ = ["FAMILIES", "Scenario", "ScenarioConfig", "probed_edge", "sample_scenario"]
+__all__ = [
+    "FAMILIES",
+    "Scenario",
+    "ScenarioConfig",
+    "probed_edge",
+    "quaternion_z_to",
+    "sample_scenario",
+]
 
 
 @dataclass(frozen=True)
@@ -107,7 +114,7 @@ def probed_edge(config: ObjectConfig, joint_angle: float) -> tuple[np.ndarray, .
     return origin, x_r, side * y_r, z_h
 
 
-def _quaternion_z_to(direction: np.ndarray) -> np.ndarray:
+def quaternion_z_to(direction: np.ndarray) -> np.ndarray:
     """The xyzw quaternion that turns +z onto ``direction`` (a unit vector)."""
     z = np.array([0.0, 0.0, 1.0])
     axis = np.cross(z, direction)
@@ -175,4 +182,4 @@ def sample_scenario(
     centre = edge_point + outward * (geometry.outer_radius + standoff)
     finger_axis = -outward
     position = centre - geometry.cylinder_length * finger_axis
-    return Scenario(object_config, angle, position, _quaternion_z_to(finger_axis))
+    return Scenario(object_config, angle, position, quaternion_z_to(finger_axis))
