@@ -175,8 +175,10 @@ def sample_scenario(
     tilt = cfg.approach_tilt
     if randomize and cfg.approach_jitter > 0:
         tilt += rng.uniform(-cfg.approach_jitter, cfg.approach_jitter)
-    # Mostly onto the top face, tilted toward the probed side: a press that does not turn the
-    # link, and where a small shear across the edge makes the edge observable.
+    # Mostly onto the face that looks up, tilted toward the other face: a press that does not
+    # turn the link, and where a small shear across the edge makes the edge observable.
+    if side_normal[2] > top_normal[2]:
+        top_normal, side_normal = side_normal, top_normal
     outward = np.cos(tilt) * top_normal + np.sin(tilt) * side_normal
     edge_point = origin + along * length * direction
     centre = edge_point + outward * (geometry.outer_radius + standoff)

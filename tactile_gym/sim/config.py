@@ -272,13 +272,18 @@ class ObjectConfig(_YamlMixin):
 
     @classmethod
     def lid(cls, **overrides: Any) -> ObjectConfig:
-        """A flat plate hinged on a horizontal axis (along world y), lying closed."""
+        """A flat plate hinged on a horizontal axis (along world -y), lying closed.
+
+        With the axis along -y, y_H points up, so a positive joint angle opens the lid and
+        ``edge_side=+1`` probes the edge of its top face.
+        """
         base = dict(
             family="lid",
             free_link_size=(0.10, 0.008, 0.06),
             fixed_link_size=(0.04, 0.008, 0.06),
             joint_position=(0.0, 0.10, 0.004),
-            axis=(0.0, 1.0, 0.0),
+            axis=(0.0, -1.0, 0.0),
+            edge_side=1,
             link_direction=(1.0, 0.0, 0.0),
             lower_limit=-0.01,
             upper_limit=2.0,
