@@ -7,8 +7,8 @@ itself, and the physics sets two rules (DESIGN.md 2.1-2.2, confirmed in ``ProbeS
 * a plain press says nothing about the edge; a small *sticking shear across the edge* tilts
   the force and makes the edge observable (about 1-2 deg of error);
 * while the link is being pushed round, the contact slides *along* the edge and the wrench
-  gives a confidently wrong edge (75-90 deg). So pushes are kept below the measurement gate's
-  force band, and only the shear probes become measurements.
+  gives a confidently wrong edge (75-90 deg). The env's gate rejects contacts that move that
+  fast, so only the shear probes become measurements.
 
 Each stop is therefore:
 
@@ -19,7 +19,7 @@ Each stop is therefore:
    while holding the force; the env's gate takes the measurement here;
 4. ``lift``, ``backoff``, ``descend``: rise, step back off the link and come down beside it;
 5. ``push``: push the link round by about ``stop_angle`` (the push distance comes from the
-   lever arm estimated from the turns measured so far), lightly, below the gate's band;
+   lever arm estimated from the turns measured so far);
 6. ``retreat``, ``reposition``: back off, rise, and return above the edge where the push
    left it, then start the next stop.
 
@@ -51,8 +51,8 @@ class ScriptedConfig:
     Attributes:
         press_force: force of a measuring press, N (the paper's 5 N).
         contact_force: force that ends the approach, N.
-        push_force: force above which the push waits for the link to move, N; it must stay
-            below the gate's force band so that pushes give no measurements.
+        push_force: force above which the push waits for the link to move, N; below the
+            gate's force band, so a push that stalls gives no measurement.
         force_gain: advance along the finger axis per newton of force error, m/N.
         shear_distance: sideways slide across the edge during a measuring press, m.
         shear_steps: control steps over which the shear is spread.

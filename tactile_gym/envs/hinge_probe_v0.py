@@ -110,7 +110,7 @@ class HingeProbeConfig:
         )
         for name in positive:
             value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
+            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
         for name in ("force_noise_std", "moment_noise_std"):
             if not getattr(self, name) >= 0:

@@ -9,7 +9,11 @@ information about the axis. There are two sources of edge directions:
   1. the contact estimate is valid;
   2. the force magnitude lies in ``force_band`` (around the paper's 5 N press);
   3. the predicted edge std is at most ``max_edge_std`` (the force is tilted enough);
-  4. the contact point moved at least ``min_spacing`` since the last accepted measurement,
+  4. the contact point moved less than ``max_step_motion`` since the previous step. While
+     the link is being pushed round, the contact point moves with it and slides along the
+     edge, and the wrench then gives a confidently wrong edge (75-90 deg, DESIGN.md 2.2);
+     a probing shear moves the contact point far less;
+  5. the contact point moved at least ``min_spacing`` since the last accepted measurement,
      or the edge turned by at least ``min_edge_change`` (so a finger resting still does not
      flood the estimator with copies of one measurement).
 
@@ -46,6 +50,8 @@ class GateConfig:
         max_edge_std: largest accepted predicted edge std, rad.
         min_spacing: least contact-point motion between accepted measurements, m.
         min_edge_change: least edge rotation that also justifies a new measurement, rad.
+        max_step_motion: largest contact-point motion over one control step of an accepted
+            wrench measurement, m.
         point_std: 1-sigma error of a contact point handed to the estimator, m.
         trace_length: end-to-end trace length that triggers a line fit, m; 0 disables traces.
         trace_max_force_ratio: largest mean |f . trace direction| / |f| of an accepted trace.
@@ -55,6 +61,7 @@ class GateConfig:
     max_edge_std: float = float(np.deg2rad(5.0))
     min_spacing: float = 0.001
     min_edge_change: float = float(np.deg2rad(2.0))
+    max_step_motion: float = 0.0005
     point_std: float = 0.001
     trace_length: float = 0.004
     trace_max_force_ratio: float = 0.7
@@ -63,7 +70,9 @@ class GateConfig:
         lo, hi = self.force_band
         if not (0.0 <= lo < hi):
             raise ValueError(f"force_band must satisfy 0 <= min < max N, got {self.force_band}")
-        positive = ("max_edge_std", "min_spacing", "min_edge_change", "point_std")
+        positive = (
+            "max_edge_std", "min_spacing", "min_edge_change", "max_step_motion", "point_std"
+        )
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)!r}")
@@ -107,6 +116,7 @@ class MeasurementGate:
         self._last_edge: np.ndarray | None = None
         self._trace_points: list[np.ndarray] = []
         self._trace_forces: list[np.ndarray] = []
+        self._previous_point: np.ndarray | None = None
 
     def offer(
         self,
@@ -128,13 +138,16 @@ class MeasurementGate:
         cfg = self.config
         magnitude = float(np.linalg.norm(force))
         in_band = valid and cfg.force_band[0] <= magnitude <= cfg.force_band[1]
+        previous, self._previous_point = self._previous_point, None
         if not in_band:
             self._trace_points.clear()
             self._trace_forces.clear()
             return []
+        self._previous_point = np.array(point, dtype=float)
+        steady = previous is not None and np.linalg.norm(point - previous) < cfg.max_step_motion
 
         accepted = []
-        if np.all(np.isfinite(edge)) and edge_std <= cfg.max_edge_std:
+        if steady and np.all(np.isfinite(edge)) and edge_std <= cfg.max_edge_std:
             if self._is_new(point, edge):
                 accepted.append(self._accept(point, edge, edge_std, "wrench"))
 

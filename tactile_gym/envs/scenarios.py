@@ -48,6 +48,8 @@ class ScenarioConfig:
         approach_tilt: angle of the finger axis from the top face's normal, toward the
             probed side face, rad.
         approach_jitter: largest random change of ``approach_tilt``, rad.
+        holding_torque: the joint's holding friction, N m: enough that a 5 N press does not
+            turn the link, little enough that a push of a few newtons does.
     """
 
     joint_angle_range: tuple[float, float] = (-0.35, 0.35)
@@ -59,6 +61,7 @@ class ScenarioConfig:
     standoff_range: tuple[float, float] = (0.002, 0.005)
     approach_tilt: float = float(np.deg2rad(10.0))
     approach_jitter: float = float(np.deg2rad(3.0))
+    holding_torque: float = 0.1
 
     def __post_init__(self) -> None:
         for name in (
@@ -80,7 +83,7 @@ class ScenarioConfig:
             raise ValueError(f"approach_tilt must be in [0, pi/2) rad, got {self.approach_tilt}")
         if not (self.standoff_range[0] >= 0):
             raise ValueError(f"standoff_range must be >= 0 m, got {self.standoff_range}")
-        for name in ("position_jitter", "approach_jitter"):
+        for name in ("position_jitter", "approach_jitter", "holding_torque"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
 
@@ -133,7 +136,11 @@ def _sample_object(family: str, rng: np.random.Generator, cfg: ScenarioConfig) -
     size[:2] *= rng.uniform(*cfg.size_scale_range, size=2)
     position = np.asarray(nominal.joint_position, dtype=float)
     position[:2] += rng.uniform(-cfg.position_jitter, cfg.position_jitter, size=2)
-    overrides = {"free_link_size": tuple(size), "joint_position": tuple(position)}
+    overrides = {
+        "free_link_size": tuple(size),
+        "joint_position": tuple(position),
+        "holding_torque": cfg.holding_torque,
+    }
     if family != "scissors":
         yaw = rng.uniform(*cfg.yaw_range)
         turn = np.array(
@@ -165,7 +172,9 @@ def sample_scenario(
         along = rng.uniform(*cfg.start_along_range)
         standoff = rng.uniform(*cfg.standoff_range)
     else:
-        object_config = ObjectConfig.family_default(families[0])
+        object_config = ObjectConfig.family_default(
+            families[0], holding_torque=cfg.holding_torque
+        )
         angle = 0.0
         along = float(np.mean(cfg.start_along_range))
         standoff = float(np.mean(cfg.standoff_range))

@@ -1,0 +1,159 @@
+"""Agents: scripted baseline, training smoke test, evaluation and the paper reproduction."""
+
+from __future__ import annotations
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+import tactile_gym  # noqa: F401 - registers the envs
+from agents import evaluate, reproduce_paper, train
+from agents.scripted import ScriptedProbePolicy
+
+
+def _run_scripted(seed: int) -> dict:
+    env = gym.make("tactile_gym/HingeProbe-v0")
+    policy = ScriptedProbePolicy.for_env(env.unwrapped)
+    obs, info = env.reset(seed=seed)
+    policy.reset()
+    done = False
+    while not done:
+        action = policy.get_action(obs)
+        assert env.action_space.contains(action)
+        obs, _, terminated, truncated, info = env.step(action)
+        done = terminated or truncated
+    env.close()
+    return info
+
+
+def test_scripted_policy_measures_and_turns_the_link():
+    info = _run_scripted(seed=0)
+    assert info["n_measurements"] >= 4
+    assert np.isfinite(info["position_error"])
+    # The pushes turned the link by more than the 30 deg of one stop.
+    assert abs(info["joint_angle"]) > np.deg2rad(30.0)
+
+
+@pytest.mark.slow
+def test_scripted_policy_beats_random(tmp_path):
+    scripted = evaluate.evaluate(["scripted", "random"], episodes=10, out=tmp_path, plot=False)
+    # A regression guard on what the baseline achieves today (README evaluation table):
+    # it gets estimates where random gets none, and some episodes come within 5 mm. It does
+    # not yet reach the 2 mm success criterion; see the README's known limitations.
+    assert scripted["scripted"]["position_mean_mm"] < scripted["random"]["position_mean_mm"] - 10
+    assert scripted["scripted"]["reached_5mm_rate"] >= 0.2
+
+
+def test_scripted_policy_never_reads_the_truth():
+    env = gym.make("tactile_gym/HingeProbe-v0")
+    policy = ScriptedProbePolicy.for_env(env.unwrapped)
+    obs, _ = env.reset(seed=3)
+    action = policy.get_action(obs)
+    env.close()
+    # Same observation, different (hidden) world: the same action.
+    policy.reset()
+    np.testing.assert_array_equal(policy.get_action(obs), action)
+
+
+def test_training_smoke(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    run_dir = train.main(
+        [
+            "--algo",
+            "ppo",
+            "--n-timesteps",
+            "64",
+            "--n-envs",
+            "1",
+            "--log-folder",
+            str(tmp_path),
+            "--eval-freq",
+            "0",
+            "--checkpoint-freq",
+            "0",
+            "--no-progress-bar",
+            "--config",
+            str(_tiny_config(tmp_path)),
+        ]
+    )
+    record = yaml.safe_load((run_dir / "config.yml").read_text())
+    assert record["hyperparameters"]["n_timesteps"] == 64
+    assert record["command"].startswith("python -m agents.train")
+    assert (run_dir / "final_model.zip").exists()
+    assert (run_dir / "vecnormalize.pkl").exists()
+    summaries = evaluate.evaluate(
+        [str(run_dir / "final_model.zip")], episodes=1, out=tmp_path / "eval", plot=False
+    )
+    assert summaries[str(run_dir / "final_model.zip")]["episodes"] == 1
+
+
+def _tiny_config(tmp_path):
+    path = tmp_path / "ppo.yml"
+    config = {
+        "default": {
+            "policy": "MultiInputPolicy",
+            "n_timesteps": 64,
+            "n_envs": 1,
+            "normalize": True,
+            "n_steps": 32,
+            "batch_size": 32,
+            "n_epochs": 1,
+        }
+    }
+    path.write_text(yaml.safe_dump(config))
+    return path
+
+
+def test_hyperparameters_resolve_per_env():
+    config = train.load_hyperparameters("ppo", "tactile_gym/HingeProbe3D-v0")
+    default = train.load_hyperparameters("ppo", "tactile_gym/HingeProbe-v0")
+    assert config["n_timesteps"] > default["n_timesteps"]
+    with pytest.raises(ValueError, match="algo"):
+        train.load_hyperparameters("dqn", "tactile_gym/HingeProbe-v0")
+
+
+def test_evaluation_writes_json(tmp_path):
+    summaries = evaluate.main(
+        ["--policies", "random", "scripted", "--episodes", "2", "--out", str(tmp_path)]
+    )
+    data = json.loads((tmp_path / "evaluation.json").read_text())
+    assert set(data["summaries"]) == {"random", "scripted"}
+    assert (tmp_path / "error_vs_step.png").exists()
+    for name in ("random", "scripted"):
+        assert summaries[name]["episodes"] == 2
+        assert len(data["episodes_detail"][name]) == 2
+
+
+def test_evaluation_rejects_unknown_policy(tmp_path):
+    with pytest.raises(ValueError, match="policy"):
+        evaluate.evaluate(["nonexistent_policy"], episodes=1, out=tmp_path)
+
+
+def test_paper_reproduction_reduced(tmp_path):
+    results = reproduce_paper.main(["--trials", "2", "--out", str(tmp_path)])
+    assert (tmp_path / "table1.json").exists()
+    assert (tmp_path / "fig_slides.png").exists()
+    sliding = results[("paper", "slides")]
+    # The paper's finding in miniature: sliding contacts break the simple method.
+    assert np.median(sliding["simple_mm"]) > 2 * np.median(sliding["proposed_mm"])
+
+
+def test_env_presets_match_registered_defaults():
+    from tactile_gym.envs.hinge_probe_v0 import HingeProbeConfig
+
+    for name, env_id in (
+        ("hinge_probe", tactile_gym.ENV_IDS[0]),
+        ("hinge_probe_3d", tactile_gym.ENV_IDS[1]),
+    ):
+        with open(f"{train.CONFIG_DIR}/env/{name}.yml") as f:
+            preset = yaml.safe_load(f)
+        config = HingeProbeConfig(**preset)
+        registered = HingeProbeConfig(**gym.spec(env_id).kwargs)
+        for field in ("families", "estimator_mode", "force_limit", "max_translation"):
+            assert getattr(config, field) == getattr(registered, field)
+        env = gym.make(env_id, **preset)
+        env.reset(seed=0)
+        env.close()
