@@ -1,7 +1,8 @@
 """Speed of the simulator: physics steps/s and control-step cost, in contact and free.
 
 Run: ``python benchmarks/bench_sim.py [--steps N]``. Prints a markdown table. "In contact"
-is a steady ~5 N press on the scissors' free link (the paper's probe); "free" is the
+is a steady ~5 N press on the scissors' free link (the paper's probe), a slide along its
+edge, and a press held back by the guarded move (the skin's worst case); "free" is the
 fingertip moving in the air above the object; "bare" is ``stepSimulation`` alone on the
 same scene. Single process, single thread.
 """
@@ -62,6 +63,12 @@ def main(argv: list[str] | None = None) -> None:
     force = float(np.linalg.norm(scene.true_wrench[:3]))
     ed = scene.edge_line[1]
     slide = _time_control(scene, [pos + 0.001 * k * ed for k in range(args.steps)][:60])
+    # Guarded move held at the force limit: up to 3 skin evaluations per substep.
+    pos = _setup_contact(scene)
+    scene.force_limit = 0.8 * force
+    _time_control(scene, [pos - [0.0, 0.0, 0.002]] * 5)
+    guarded = _time_control(scene, [pos - [0.0, 0.0, 0.002]] * args.steps)
+    scene.force_limit = 8.0
     pos = _setup_contact(scene)
     bare_contact = _time_bare(scene, args.steps * n_sub)
 
@@ -76,6 +83,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = [
         ("in contact, static press", press, bare_contact),
         ("in contact, sliding along the edge", slide, bare_contact),
+        ("in contact, guarded move at the force limit", guarded, bare_contact),
         ("free (fingertip in the air)", free, bare_free),
     ]
     print(

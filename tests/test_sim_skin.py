@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import multiprocessing
+
 import numpy as np
 import pytest
 
-from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
+from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig, _kernels
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])  # sensor z along world -z
 FAR = np.array([0.25, -0.15])  # table spot far from the object, m
@@ -136,3 +138,34 @@ def test_read_wrench_uses_only_the_given_generator(scene):
 
 def test_default_spacing_is_fine_enough():
     assert SkinConfig().node_spacing <= 0.0007
+
+
+def test_reaction_is_consistent_and_contact_views_match(scene):
+    """prim_wrench sums to the wrench; the per-node views are those of the kernel's output."""
+    _press_table(scene, 0.001, steps=4)
+    c = scene.contact
+    np.testing.assert_allclose(sum(c.prim_wrench.values()), c.wrench, atol=1e-12)
+    assert c.force_norm == pytest.approx(np.linalg.norm(c.wrench[:3]), rel=1e-12)
+    assert c.max_penetration == c.delta.max()
+    assert c.local.shape == c.normal.shape == c.anchor.shape == (3, c.n_active)
+    np.testing.assert_allclose(c.point_local, c.local + c.delta * c.normal, atol=1e-15)
+    assert c.reaction(0) is None  # the free link is not touched on the table
+    assert not c.shell_contact
+
+
+def _press_in_worker(depth: float) -> np.ndarray:
+    with ProbeScene(ObjectConfig.scissors()) as s:
+        _press_table(s, depth, steps=4)
+        return s.true_wrench
+
+
+def test_kernels_compile_once_and_work_in_spawned_workers(scene):
+    """Stable argument types: one compiled signature per kernel; a spawned process (as in an
+    async vector env) gets the same wrench."""
+    _press_table(scene, 0.001, steps=4)
+    for kernel in (_kernels.select, _kernels.evaluate, _kernels.commit):
+        assert len(kernel.signatures) == 1, kernel
+    ctx = multiprocessing.get_context("spawn")
+    with ctx.Pool(1) as pool:
+        remote = pool.apply(_press_in_worker, (0.001,))
+    np.testing.assert_array_equal(remote, _press_in_worker(0.001))

@@ -10,7 +10,7 @@ Frames (DESIGN.md section 4):
 The fingertip pose (position, quaternion x y z w) maps the sensor frame to the world frame:
 x_world = R(q) x_sensor + position.
 
-Each physics step: the skin forces are computed in NumPy at the fingertip's new pose against
+Each physics step: the skin forces are computed at the fingertip's new pose against
 the current object pose (:mod:`tactile_gym.sim.skin`), their reaction is applied to the free
 link with ``applyExternalForce``/``applyExternalTorque`` (world frame; PyBullet clears them
 after every ``stepSimulation``), then PyBullet steps the rigid bodies. The table and the fixed
@@ -256,7 +256,7 @@ class ProbeScene:
 
         limited = shell = False
         max_pen = max_force = 0.0
-        f_prev = float(np.linalg.norm(skin.contact.wrench[:3]))
+        f_prev = skin.contact.force_norm
         limit = self.force_limit
         cid = self._world.client_id
         body = obj.body_id
@@ -289,7 +289,7 @@ class ProbeScene:
             pos_new = self._pos + step_p
             rot_new = step_r @ self._rot if moving_rot else self._rot
             contact = skin.evaluate(sel, prims, rot_new, pos_new, dt, moved)
-            f_new = float(np.linalg.norm(contact.wrench[:3]))
+            f_new = contact.force_norm
             if f_new > limit and f_new > f_prev:
                 limited = True
                 # Keep the sideways part of the translation and only the fraction of the
@@ -300,24 +300,22 @@ class ProbeScene:
                 pos_new = self._pos + step_p - (1.0 - frac) * push * f_dir
                 rot_new = self._rot
                 contact = skin.evaluate(sel, prims, rot_new, pos_new, dt, moved)
-                f_new = float(np.linalg.norm(contact.wrench[:3]))
+                f_new = contact.force_norm
                 if f_new > limit and f_new > f_prev:
                     pos_new = self._pos
                     contact = skin.evaluate(sel, prims, rot_new, pos_new, dt, moved)
-                    f_new = float(np.linalg.norm(contact.wrench[:3]))
+                    f_new = contact.force_norm
             skin.commit(contact)
             if rot_new is self._rot:
                 tip_moved += float(np.linalg.norm(pos_new - self._pos))
             else:
                 tip_moved += step_len
             self._pos, self._rot = pos_new, rot_new
-            self._apply_reaction(contact, cid)
+            self._apply_reaction(contact)
             self._world.step()
             f_prev = f_new
-            if contact.n_active:
-                pen = contact.max_penetration
-                max_pen = max(max_pen, pen)
-                shell = shell or pen > skin.thickness
+            max_pen = max(max_pen, contact.max_penetration)
+            shell = shell or contact.shell_contact
             max_force = max(max_force, f_new)
         obj.sync()
         return StepInfo(
@@ -328,23 +326,16 @@ class ProbeScene:
             max_force=max_force,
         )
 
-    def _apply_reaction(self, contact: Contact, cid: int) -> None:
-        w = contact.prim_wrench.get(FREE_BODY)
-        if w is None:
+    def _apply_reaction(self, contact: Contact) -> None:
+        reaction = contact.reaction(FREE_BODY)
+        if reaction is None:
             self.last_reaction = None
             return
-        f_world = self._rot @ w[:3]
-        m_world = self._rot @ w[3:]
-        com_copy = self._object.free_box.center.copy()
-        r = self._pos - com_copy
-        torque = -m_world - (
-            r[1] * f_world[2] - r[2] * f_world[1],
-            r[2] * f_world[0] - r[0] * f_world[2],
-            r[0] * f_world[1] - r[1] * f_world[0],
-        )
-        self._object.apply_wrench(-f_world, torque)
+        force, torque = reaction
+        com = self._object.free_box.center.copy()
+        self._object.apply_wrench(force, torque)
         #: (force, torque about the COM, COM) last applied to the free link, world frame.
-        self.last_reaction = (-f_world, np.asarray(torque, dtype=float), com_copy)
+        self.last_reaction = (force, torque, com)
 
     # --- sensing -------------------------------------------------------------------------
 

@@ -1,4 +1,4 @@
-"""Elastic-foundation (Winkler) skin of the soft fingertip, computed in NumPy.
+"""Elastic-foundation (Winkler) skin of the soft fingertip.
 
 Frames and units (DESIGN.md sections 2.4 and 4): node positions, normals and the wrench are
 in the sensor frame (origin at the F/T sensor, z along the finger axis); each primitive is
@@ -23,15 +23,17 @@ A node whose penetration exceeds the skin thickness has reached the rigid shell:
 reported (``Contact.shell_contact``), never hidden; the spring law continues linearly.
 
 Broad phase, once per control step (``select``): the fingertip's bounding sphere is tested
-against each primitive's AABB; for near primitives, node clusters (bounding spheres of ~4 mm
-voxels of the node set) and then nodes are kept if their signed distance is below the motion
-bound plus ``margin``, sorted by that distance. Signed distances are 1-Lipschitz, so a node
+against each primitive; for near primitives, node clusters (bounding spheres of ~4 mm voxels
+of the node set) and then nodes are kept if their signed distance is below the motion bound
+plus ``margin``, sorted by that distance. Signed distances are 1-Lipschitz, so a node
 that started at distance d cannot touch before the fingertip and object have moved d
 relative to each other: each substep (``evaluate``) evaluates only the prefix of candidates
-whose starting distance is below the motion so far (a slice, no search).
+whose starting distance is below the motion so far.
 
-Arrays inside the hot path hold points as columns, (3, N), so that reductions over x, y, z
-are row operations (NumPy's reductions along a length-3 axis are slow).
+The broad phase, the per-substep node loop (narrow phase, forces, stick-slip, wrench) and
+committing the state are compiled kernels (:mod:`tactile_gym.sim._kernels`): a few hundred
+nodes are too few to amortise NumPy's per-call cost. ``Contact`` keeps the kernel's output
+and builds its per-node views and dictionaries on demand.
 """
 
 from __future__ import annotations
@@ -41,7 +43,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.sensing.geometry import FingertipGeometry
+from tactile_gym.sim import _kernels
 from tactile_gym.sim.config import SkinConfig
+from tactile_gym.sim.primitives import Plane, RoundedBox
 
 __all__ = ["Contact", "Selection", "SoftSkin"]
 
@@ -54,11 +58,14 @@ class Selection:
 
     Attributes:
         nodes: (M,) indices of candidate nodes.
-        points: (3, M) their positions, sensor frame, m.
+        points: (M, 3) their positions, sensor frame, m.
         areas: (M,) their areas, m^2.
         distance: (M,) ascending signed distance to the nearest primitive at selection, m.
         prims: indices (into the primitive list) of primitives near the fingertip.
         reach: motion bound (plus margin) the selection covers, m.
+        shapes, prim_info: those primitives' shapes and (index, kind), as the kernels take
+            them (:mod:`tactile_gym.sim._kernels`).
+        poses: (P + 1, 4, 3) buffer for the poses of each evaluation.
     """
 
     nodes: np.ndarray
@@ -67,17 +74,16 @@ class Selection:
     distance: np.ndarray
     prims: list[int]
     reach: float
+    shapes: np.ndarray
+    prim_info: np.ndarray
+    poses: np.ndarray
 
-    def count(self, moved: float) -> int:
-        """How many candidates may touch after a relative motion of ``moved`` m."""
-        return int(np.searchsorted(self.distance, moved, side="right"))
 
-
-@dataclass
 class Contact:
     """The skin's contact after one evaluation (not yet committed).
 
     Per-node arrays hold only the nodes in contact (K of them); vectors are columns (3, K).
+    They are views of the kernel's output: read them, do not write them.
 
     Attributes:
         nodes: (K,) indices of nodes in contact.
@@ -90,70 +96,160 @@ class Contact:
         force_local: (3, K) force on the skin at each node, primitive frame, N.
         point_local: (3, K) contact points (deformed skin), primitive frame, m.
         wrench: (6,) force on the skin and moment about the sensor origin, sensor frame.
+        force_norm: |wrench[:3]|, N.
         prim_wrench: {primitive index: (6,) wrench from that primitive}, sensor frame.
         frames: {primitive index: (A, b)} with x_primitive = A x_sensor + b.
+        n_active: K.
+        max_penetration: largest penetration, m (0 without contact).
+        shell_contact: some penetration exceeds the skin thickness (the rigid shell).
     """
 
-    nodes: np.ndarray
-    prim: np.ndarray
-    local: np.ndarray
-    normal: np.ndarray
-    delta: np.ndarray
-    pressure: np.ndarray
-    anchor: np.ndarray
-    force_local: np.ndarray
-    point_local: np.ndarray
-    wrench: np.ndarray
-    prim_wrench: dict[int, np.ndarray]
-    frames: dict[int, tuple[np.ndarray, np.ndarray]]
+    __slots__ = (
+        "_node_data",
+        "_node_ids",
+        "_prim_data",
+        "_prim_index",
+        "_prim_wrench",
+        "force_norm",
+        "max_penetration",
+        "n_active",
+        "shell_contact",
+        "wrench",
+    )
+
+    def __init__(
+        self,
+        count: int,
+        max_penetration: float,
+        shell_contact: bool,
+        force_norm: float,
+        wrench: np.ndarray,
+        prim_data: np.ndarray,
+        node_data: np.ndarray,
+        node_ids: np.ndarray,
+        prim_index: list[int],
+    ) -> None:
+        self.n_active = count
+        self.max_penetration = max_penetration
+        self.shell_contact = shell_contact
+        self.force_norm = force_norm
+        self.wrench = wrench
+        self._prim_data = prim_data
+        self._node_data = node_data
+        self._node_ids = node_ids
+        self._prim_index = prim_index
+        self._prim_wrench: dict[int, np.ndarray] | None = None
 
     @property
-    def max_penetration(self) -> float:
-        return float(self.delta.max()) if len(self.delta) else 0.0
+    def prim_wrench(self) -> dict[int, np.ndarray]:
+        if self._prim_wrench is None:
+            k = _kernels.WRENCH
+            self._prim_wrench = {
+                j: self._prim_data[i, k : k + 6]
+                for i, j in enumerate(self._prim_index)
+                if self._prim_data[i, _kernels.COUNT]
+            }
+        return self._prim_wrench
+
+    def reaction(self, prim: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """Force and torque the skin exerts on primitive ``prim`` (minus its share of
+        ``wrench``), world frame, torque about the primitive's centre; None if not touched."""
+        for i, j in enumerate(self._prim_index):
+            if j == prim and self._prim_data[i, _kernels.COUNT]:
+                r = self._prim_data[i, _kernels.REACTION : _kernels.REACTION + 6]
+                return r[:3], r[3:]
+        return None
 
     @property
-    def n_active(self) -> int:
-        return len(self.nodes)
+    def frames(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        f = self._prim_data[:, _kernels.FRAME : _kernels.FRAME + 12]
+        return {j: (f[i, :9].reshape(3, 3), f[i, 9:]) for i, j in enumerate(self._prim_index)}
 
-    def _to_sensor(self, values: np.ndarray, is_point: bool) -> np.ndarray:
-        out = np.empty((len(self.nodes), 3))
+    @property
+    def nodes(self) -> np.ndarray:
+        return self._node_ids[: self.n_active, 0]
+
+    @property
+    def prim(self) -> np.ndarray:
+        return self._node_ids[: self.n_active, 1]
+
+    def _vectors(self, column: int) -> np.ndarray:
+        return self._node_data[: self.n_active, column : column + 3]
+
+    @property
+    def local(self) -> np.ndarray:
+        return self._vectors(_kernels.LOCAL).T
+
+    @property
+    def normal(self) -> np.ndarray:
+        return self._vectors(_kernels.NORMAL).T
+
+    @property
+    def anchor(self) -> np.ndarray:
+        return self._vectors(_kernels.ANCHOR).T
+
+    @property
+    def force_local(self) -> np.ndarray:
+        return self._vectors(_kernels.FORCE).T
+
+    @property
+    def point_local(self) -> np.ndarray:
+        return self._vectors(_kernels.POINT).T
+
+    @property
+    def delta(self) -> np.ndarray:
+        return self._node_data[: self.n_active, _kernels.DELTA]
+
+    @property
+    def pressure(self) -> np.ndarray:
+        return self._node_data[: self.n_active, _kernels.PRESSURE]
+
+    def _to_sensor(self, column: int, is_point: bool) -> np.ndarray:
+        values = self._vectors(column)
+        out = np.empty((self.n_active, 3))
         for j, (a, b) in self.frames.items():
             m = self.prim == j
-            v = values[:, m].T
-            out[m] = ((v - b) if is_point else v) @ a
+            out[m] = ((values[m] - b) if is_point else values[m]) @ a
         return out
 
     def points_sensor(self) -> np.ndarray:
         """(K, 3) contact points (deformed skin, on the object), sensor frame, m."""
-        return self._to_sensor(self.point_local, True)
+        return self._to_sensor(_kernels.POINT, True)
 
     def forces_sensor(self) -> np.ndarray:
         """(K, 3) force on the skin at each contact node, sensor frame, N."""
-        return self._to_sensor(self.force_local, False)
+        return self._to_sensor(_kernels.FORCE, False)
 
 
-def _empty_contact() -> Contact:
-    z3 = np.zeros((3, 0))
-    return Contact(
-        nodes=np.zeros(0, dtype=np.intp),
-        prim=np.zeros(0, dtype=np.intp),
-        local=z3,
-        normal=z3,
-        delta=np.zeros(0),
-        pressure=np.zeros(0),
-        anchor=z3,
-        force_local=z3,
-        point_local=z3,
-        wrench=np.zeros(6),
-        prim_wrench={},
-        frames={},
-    )
+_EMPTY = Contact(
+    count=0,
+    max_penetration=0.0,
+    shell_contact=False,
+    force_norm=0.0,
+    wrench=np.zeros(6),
+    prim_data=np.zeros((0, _kernels.PRIM_COLS)),
+    node_data=np.zeros((0, _kernels.NODE_COLS)),
+    node_ids=np.zeros((0, 2), dtype=np.int64),
+    prim_index=[],
+)
+_EMPTY.wrench.flags.writeable = False
 
 
-def _pose_in(prim, rotation: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(A, b) with x_local = A x_sensor + b for the fingertip pose and a primitive."""
-    rb = prim.rotation
-    return rb.T @ rotation, rb.T @ (position - prim.center)
+def _shape(prim) -> tuple[list[float], int]:
+    """A primitive's row of ``shapes`` and its kind, for the kernels."""
+    if isinstance(prim, RoundedBox):
+        return [*prim.inner_half, prim.radius], _kernels.BOX
+    if isinstance(prim, Plane):
+        return [0.0, 0.0, 0.0, prim.height], _kernels.PLANE
+    raise TypeError(f"the skin handles RoundedBox and Plane primitives, got {type(prim).__name__}")
+
+
+def _fill_poses(poses: np.ndarray, primitives, rotation, position) -> None:
+    poses[0, :3] = rotation
+    poses[0, 3] = position
+    for i, prim in enumerate(primitives, start=1):
+        poses[i, :3] = prim.rotation
+        poses[i, 3] = prim.center
 
 
 class SoftSkin:
@@ -174,21 +270,19 @@ class SoftSkin:
         _, inverse = np.unique(keys, axis=0, return_inverse=True)
         inverse = inverse.ravel()
         order = np.argsort(inverse, kind="stable")
-        self.points = np.ascontiguousarray(pts[order])
-        self.normals = np.ascontiguousarray(s.normals[order])
-        self.areas = np.ascontiguousarray(s.areas[order])
-        self._points_t = np.ascontiguousarray(self.points.T)
+        self.points = np.ascontiguousarray(pts[order], dtype=float)
+        self.normals = np.ascontiguousarray(s.normals[order], dtype=float)
+        self.areas = np.ascontiguousarray(s.areas[order], dtype=float)
         labels = inverse[order]
         bounds = np.flatnonzero(np.diff(labels)) + 1
-        starts = np.concatenate([[0], bounds])
-        ends = np.concatenate([bounds, [len(labels)]])
-        self._cl_nodes = [np.arange(a, b) for a, b in zip(starts, ends, strict=True)]
-        centers = np.array([self.points[i].mean(0) for i in self._cl_nodes])
-        self._cl_center_t = np.ascontiguousarray(centers.T)
+        self._cl_start = np.concatenate([[0], bounds, [len(labels)]]).astype(np.int64)
+        spans = list(zip(self._cl_start[:-1], self._cl_start[1:], strict=True))
+        centers = np.array([self.points[a:b].mean(0) for a, b in spans])
+        self._cl_center = np.ascontiguousarray(centers)
         self._cl_radius = np.array(
             [
-                np.linalg.norm(self.points[i] - c, axis=1).max()
-                for i, c in zip(self._cl_nodes, centers, strict=True)
+                np.linalg.norm(self.points[a:b] - c, axis=1).max()
+                for (a, b), c in zip(spans, centers, strict=True)
             ]
         )
         lo, hi = self.points.min(0), self.points.max(0)
@@ -202,10 +296,13 @@ class SoftSkin:
         self.mu = float(config.friction)
         self.thickness = float(geometry.skin_thickness)
         n = len(self.points)
-        self._prim = np.full(n, -1, dtype=np.intp)
-        self._anchor = np.zeros((3, n))
+        # Committed state per node: primitive touched (-1: none), anchor in that
+        # primitive's frame, penetration. Only the nodes of ``contact`` have one.
+        self._prim = np.full(n, -1, dtype=np.int64)
+        self._anchor = np.zeros((n, 3))
         self._delta = np.zeros(n)
-        self.contact = _empty_contact()
+        self._slot = np.full(n, -1, dtype=np.int64)  # scratch of the broad phase
+        self.contact = _EMPTY
 
     @property
     def n_nodes(self) -> int:
@@ -215,7 +312,7 @@ class SoftSkin:
         """Forget all contact state (anchors, previous penetration)."""
         self._prim.fill(-1)
         self._delta.fill(0.0)
-        self.contact = _empty_contact()
+        self.contact = _EMPTY
 
     # --- broad phase ---------------------------------------------------------------------
 
@@ -229,59 +326,43 @@ class SoftSkin:
         """Pre-select nodes that may touch a primitive during the coming substeps.
 
         Args:
-            primitives: objects with ``center``, ``rotation``, ``world_aabb``,
-                ``local_distance`` and ``local_normal``.
+            primitives: :class:`~tactile_gym.sim.primitives.RoundedBox` and
+                :class:`~tactile_gym.sim.primitives.Plane` objects, posed now.
             rotation, position: fingertip pose now (sensor to world).
             motion_bound: largest relative displacement of any node with respect to any
                 primitive expected before the next ``select``, m.
         """
-        reach = motion_bound + self.config.margin
-        prims: list[int] = []
-        idx_chunks: list[np.ndarray] = []
-        d_chunks: list[np.ndarray] = []
-        center = rotation @ self.bound_center + position
-        grow = self.bound_radius + reach
-        for j, prim in enumerate(primitives):
-            lo, hi = prim.world_aabb()
-            if np.any(center < lo - grow) or np.any(center > hi + grow):
-                continue
-            a, b = _pose_in(prim, rotation, position)
-            cc = a @ self._cl_center_t + b[:, None]
-            near = np.flatnonzero(prim.local_distance(cc) < self._cl_radius + reach)
-            if len(near) == 0:
-                continue
-            idx = np.concatenate([self._cl_nodes[k] for k in near])
-            d = prim.local_distance(a @ self._points_t[:, idx] + b[:, None])
-            keep = d < reach
-            if keep.any():
-                prims.append(j)
-                idx_chunks.append(idx[keep])
-                d_chunks.append(d[keep])
-        if not idx_chunks:
-            nodes = np.zeros(0, dtype=np.intp)
-            dist = np.zeros(0)
-        else:
-            nodes = np.concatenate(idx_chunks)
-            dist = np.concatenate(d_chunks)
-            if len(idx_chunks) > 1:
-                # A node near two primitives is kept once, with its smaller distance.
-                order = np.lexsort((dist, nodes))
-                nodes, dist = nodes[order], dist[order]
-                first = np.concatenate([[True], nodes[1:] != nodes[:-1]])
-                nodes, dist = nodes[first], dist[first]
-            order = np.argsort(dist, kind="stable")
-            nodes, dist = nodes[order], dist[order]
-        # Nodes outside the selection cannot be in contact: drop their state.
-        keep_all = np.zeros(self.n_nodes, dtype=bool)
-        keep_all[nodes] = True
-        self._prim[~keep_all] = -1
+        reach = float(motion_bound + self.config.margin)
+        shapes, kinds = zip(*(_shape(prim) for prim in primitives), strict=True)
+        shapes = np.array(shapes, dtype=float)
+        prim_info = np.array([range(len(primitives)), kinds], dtype=np.int64).T.copy()
+        poses = np.empty((len(primitives) + 1, 4, 3))
+        _fill_poses(poses, primitives, rotation, position)
+        nodes, points, areas, dist, hits = _kernels.select(
+            self.points,
+            self.areas,
+            self._cl_center,
+            self._cl_radius,
+            self._cl_start,
+            self.bound_center,
+            self.bound_radius,
+            poses,
+            shapes,
+            prim_info,
+            reach,
+            self._slot,
+        )
+        near = np.flatnonzero(hits)
         return Selection(
             nodes=nodes,
-            points=np.ascontiguousarray(self._points_t[:, nodes]),
-            areas=self.areas[nodes],
+            points=points,
+            areas=areas,
             distance=dist,
-            prims=prims,
+            prims=near.tolist(),
             reach=reach,
+            shapes=shapes[near],
+            prim_info=prim_info[near],
+            poses=np.empty((len(near) + 1, 4, 3)),
         )
 
     # --- narrow phase and forces ---------------------------------------------------------
@@ -305,124 +386,43 @@ class SoftSkin:
             moved: bound on the relative motion of any node and primitive since
                 ``select``, m; None evaluates every candidate.
         """
-        m = len(selection.nodes) if moved is None else selection.count(moved)
-        if m == 0:
+        if not len(selection.nodes):
             return _EMPTY
-        pts = selection.points[:, :m]
-        prims = selection.prims
-        frames = {j: _pose_in(primitives[j], rotation, position) for j in prims}
-        if len(prims) == 1:
-            j = prims[0]
-            a, b = frames[j]
-            xl = a @ pts
-            xl += b[:, None]
-            d = primitives[j].local_distance(xl)
-            hit = np.flatnonzero(d < 0.0)
-            if len(hit) == 0:
-                return _EMPTY
-            xl = xl[:, hit]
-            delta = -d[hit]
-            n = primitives[j].local_normal(xl)
-            prim = np.full(len(hit), j, dtype=np.intp)
-        else:
-            best_d = None
-            for j in prims:
-                a, b = frames[j]
-                xj = a @ pts
-                xj += b[:, None]
-                dj = primitives[j].local_distance(xj)
-                if best_d is None:
-                    best_d, best_x = dj, xj
-                    best_j = np.full(len(dj), j, dtype=np.intp)
-                else:
-                    better = dj < best_d
-                    best_d = np.where(better, dj, best_d)
-                    best_x = np.where(better, xj, best_x)
-                    best_j = np.where(better, j, best_j)
-            hit = np.flatnonzero(best_d < 0.0)
-            if len(hit) == 0:
-                return _EMPTY
-            xl = best_x[:, hit]
-            delta = -best_d[hit]
-            prim = best_j[hit]
-            n = np.empty_like(xl)
-            for j in prims:
-                sel = prim == j
-                if sel.any():
-                    n[:, sel] = primitives[j].local_normal(xl[:, sel])
-        nodes = selection.nodes[hit]
-        area = selection.areas[hit]
-
-        same = self._prim[nodes] == prim
-        delta_prev = np.where(same, self._delta[nodes], delta)
-        # p = k_n delta + c d(delta)/dt, no adhesion; a new contact starts undamped.
-        pressure = delta - delta_prev
-        pressure *= self.c_n / dt
-        pressure += self.k_n * delta
-        np.maximum(pressure, 0.0, out=pressure)
-        anchor = np.where(same, self._anchor[:, nodes], xl)
-        u = xl - anchor
-        u -= (u * n).sum(axis=0) * n
-        u_sq = (u * u).sum(axis=0)
-        cap = self.mu * pressure
-        slip = np.flatnonzero(self.k_t**2 * u_sq > cap * cap)
-        if len(slip):
-            u[:, slip] *= cap[slip] / (self.k_t * np.sqrt(u_sq[slip]))
-        anchor = xl - u
-        f = n * (pressure * area)
-        f -= u * (self.k_t * area)
-        app = n * delta
-        app += xl
-
-        wrench = np.zeros(6)
-        prim_wrench: dict[int, np.ndarray] = {}
-        for j in prims:
-            a, b = frames[j]
-            if len(prims) == 1:
-                fj, aj = f, app
-            else:
-                sel = prim == j
-                if not sel.any():
-                    continue
-                fj, aj = f[:, sel], app[:, sel]
-            force = fj.sum(axis=1)
-            g = aj @ fj.T
-            # sum (x - b) x f = antisymmetric part of sum x f^T, minus b x F.
-            moment = np.array(
-                [
-                    g[1, 2] - g[2, 1] - (b[1] * force[2] - b[2] * force[1]),
-                    g[2, 0] - g[0, 2] - (b[2] * force[0] - b[0] * force[2]),
-                    g[0, 1] - g[1, 0] - (b[0] * force[1] - b[1] * force[0]),
-                ]
-            )
-            w = np.concatenate([force @ a, moment @ a])
-            prim_wrench[j] = w
-            wrench += w
-        return Contact(
-            nodes=nodes,
-            prim=prim,
-            local=xl,
-            normal=n,
-            delta=delta,
-            pressure=pressure,
-            anchor=anchor,
-            force_local=f,
-            point_local=app,
-            wrench=wrench,
-            prim_wrench=prim_wrench,
-            frames=frames,
+        poses = selection.poses
+        _fill_poses(poses, [primitives[j] for j in selection.prims], rotation, position)
+        out = _kernels.evaluate(
+            selection.points,
+            selection.areas,
+            selection.nodes,
+            selection.distance,
+            np.inf if moved is None else float(moved),
+            poses,
+            selection.shapes,
+            selection.prim_info,
+            self._prim,
+            self._anchor,
+            self._delta,
+            self.k_n,
+            self.c_n / dt,
+            self.k_t,
+            self.mu,
+            self.thickness,
         )
+        if out[0] == 0:
+            return _EMPTY
+        return Contact(*out, selection.prims)
 
     def commit(self, contact: Contact) -> None:
         """Make ``contact`` the skin's state (anchors, penetration) for the next step."""
-        old = self.contact.nodes
-        if len(old):
-            self._prim[old] = -1
-        if contact.n_active:
-            self._prim[contact.nodes] = contact.prim
-            self._anchor[:, contact.nodes] = contact.anchor
-            self._delta[contact.nodes] = contact.delta
+        old = self.contact
+        _kernels.commit(
+            self._prim,
+            self._anchor,
+            self._delta,
+            old._node_ids,
+            old.n_active,
+            contact._node_ids,
+            contact._node_data,
+            contact.n_active,
+        )
         self.contact = contact
-
-
-_EMPTY = _empty_contact()

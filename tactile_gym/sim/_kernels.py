@@ -1,0 +1,384 @@
+"""Compiled hot path of the Winkler skin (:mod:`tactile_gym.sim.skin`).
+
+The skin touches a few hundred nodes per substep; written as NumPy array expressions that
+was ~60 calls per substep whose fixed per-call cost dominated. Here the broad phase
+(``select``, once per control step), the per-substep evaluation (``evaluate``) and
+committing the state (``commit``) are numba kernels with plain loops over the nodes, so the
+cost is the arithmetic. The physics is documented in ``skin.py``; this module only restates
+what each loop computes.
+
+Type stability: every argument is a C-contiguous float64 or int64 array or a Python
+float/int, so each kernel compiles exactly once (``tests/test_sim_skin.py`` checks this).
+``cache=True`` stores the machine code in ``__pycache__`` next to this file, keyed on this
+file's source and the CPU: processes started later (also the forked or spawned workers of a
+vector env) load it instead of compiling. Numba writes cache files atomically, so workers
+that compile at the same time do not corrupt each other.
+
+Layouts (P primitives, M candidate nodes):
+
+* ``poses`` (P + 1, 4, 3): row 0 is the fingertip (rotation sensor to world, then position),
+  rows 1..P the primitives (rotation with the local axes as columns, then centre), world
+  frame.
+* ``shapes`` (P, 4): a box's inner half extents (half extents minus rounding) and rounding
+  radius, or, for the plane, (0, 0, 0, height).
+* ``prim_info`` (P, 2) int64: index of the primitive in the scene's list, kind (``BOX`` or
+  ``PLANE``).
+* ``frames`` (P, 4, 3): (A, b) with x_primitive = A x_sensor + b, as the 3 rows of A, then b.
+* ``node_data`` (M, NODE_COLS): per node in contact, in its primitive's frame, columns
+  ``LOCAL``, ``NORMAL``, ``ANCHOR``, ``FORCE``, ``POINT`` (3 each), then ``DELTA``,
+  ``PRESSURE``; ``node_ids`` (M, 2) int64: node index, primitive index.
+* ``prim_data`` (P, PRIM_COLS): per primitive, ``WRENCH`` (6, on the skin, sensor frame,
+  moment about the sensor origin), ``REACTION`` (6, on the primitive, world frame, torque
+  about its centre), ``FRAME`` (12, ``frames`` flattened), ``COUNT`` (nodes touching it).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+BOX = 0
+PLANE = 1
+
+LOCAL, NORMAL, ANCHOR, FORCE, POINT = 0, 3, 6, 9, 12
+DELTA, PRESSURE = 15, 16
+NODE_COLS = 17
+
+WRENCH, REACTION, FRAME, COUNT = 0, 6, 12, 24
+PRIM_COLS = 25
+
+
+@njit(cache=True)
+def _frames(poses):
+    """(P, 4, 3) frames: A = Rb^T R, b = Rb^T (p - c) for each primitive."""
+    n_prim = poses.shape[0] - 1
+    frames = np.empty((n_prim, 4, 3))
+    for j in range(n_prim):
+        for r in range(3):
+            for c in range(3):
+                s = 0.0
+                for k in range(3):
+                    s += poses[j + 1, k, r] * poses[0, k, c]
+                frames[j, r, c] = s
+            s = 0.0
+            for k in range(3):
+                s += poses[j + 1, k, r] * (poses[0, 3, k] - poses[j + 1, 3, k])
+            frames[j, 3, r] = s
+    return frames
+
+
+# Point helpers take and return coordinates as scalars (tuples), which stay in registers.
+
+
+@njit(cache=True, inline="always")
+def _to_local(frames, j, x0, x1, x2):
+    """A_j x + b_j: a sensor-frame point in primitive j's frame."""
+    return (
+        frames[j, 0, 0] * x0 + frames[j, 0, 1] * x1 + frames[j, 0, 2] * x2 + frames[j, 3, 0],
+        frames[j, 1, 0] * x0 + frames[j, 1, 1] * x1 + frames[j, 1, 2] * x2 + frames[j, 3, 1],
+        frames[j, 2, 0] * x0 + frames[j, 2, 1] * x1 + frames[j, 2, 2] * x2 + frames[j, 3, 2],
+    )
+
+
+@njit(cache=True, inline="always")
+def _distance(shapes, kind, j, x0, x1, x2):
+    """Signed distance of a point in primitive j's frame (negative inside), m."""
+    if kind == PLANE:
+        return x2 - shapes[j, 3]
+    q0 = abs(x0) - shapes[j, 0]
+    q1 = abs(x1) - shapes[j, 1]
+    q2 = abs(x2) - shapes[j, 2]
+    qmax = max(max(q0, q1), q2)
+    p0, p1, p2 = max(q0, 0.0), max(q1, 0.0), max(q2, 0.0)
+    return math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) + min(qmax, 0.0) - shapes[j, 3]
+
+
+@njit(cache=True, inline="always")
+def _normal(shapes, kind, j, x0, x1, x2):
+    """Outward unit normal at a point in primitive j's frame: for a box, from the inner box's
+    nearest point, or along the nearest face's axis inside the inner box."""
+    if kind == PLANE:
+        return 0.0, 0.0, 1.0
+    q0 = abs(x0) - shapes[j, 0]
+    q1 = abs(x1) - shapes[j, 1]
+    q2 = abs(x2) - shapes[j, 2]
+    p0, p1, p2 = max(q0, 0.0), max(q1, 0.0), max(q2, 0.0)
+    outer = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+    if outer > 1e-12:
+        n0, n1, n2 = p0 / outer, p1 / outer, p2 / outer
+    else:
+        qmax = max(max(q0, q1), q2)
+        n0 = 1.0 if q0 == qmax else 0.0
+        n1 = 1.0 if q1 == qmax else 0.0
+        n2 = 1.0 if q2 == qmax else 0.0
+    return math.copysign(n0, x0), math.copysign(n1, x1), math.copysign(n2, x2)
+
+
+@njit(cache=True)
+def select(
+    points,
+    areas,
+    cluster_center,
+    cluster_radius,
+    cluster_start,
+    bound_center,
+    bound_radius,
+    poses,
+    shapes,
+    prim_info,
+    reach,
+    slot,
+):
+    """Nodes whose signed distance to some primitive is below ``reach``, nearest first.
+
+    Bounding spheres prune first: the fingertip's against each primitive, then each node
+    cluster's (signed distances are 1-Lipschitz, so nothing within reach is lost).
+
+    Args:
+        points, areas: (N, 3), (N,) node positions (sensor frame, grouped by cluster) and
+            areas.
+        cluster_center, cluster_radius: (C, 3), (C,) bounding spheres of the clusters.
+        cluster_start: (C + 1,) first node of each cluster, then N.
+        bound_center, bound_radius: (3,), float: the fingertip's bounding sphere.
+        poses, shapes, prim_info: the fingertip and all primitives (module docstring).
+        reach: distance bound, m.
+        slot: (N,) int64 scratch, all -1 on entry and on return.
+
+    Returns:
+        (nodes (M,), their points (M, 3), areas (M,) and distances (M,), ascending, the
+        smallest over the primitives; hits (P,): how many nodes are within reach of each
+        primitive).
+    """
+    frames = _frames(poses)
+    n_prim = prim_info.shape[0]
+    found = np.empty(points.shape[0], dtype=np.int64)
+    dist = np.empty(points.shape[0])
+    hits = np.zeros(n_prim, dtype=np.int64)
+    count = 0
+    for j in range(n_prim):
+        kind = prim_info[j, 1]
+        x0, x1, x2 = _to_local(frames, j, bound_center[0], bound_center[1], bound_center[2])
+        if not _distance(shapes, kind, j, x0, x1, x2) < bound_radius + reach:
+            continue
+        for k in range(cluster_radius.shape[0]):
+            c = cluster_center[k]
+            x0, x1, x2 = _to_local(frames, j, c[0], c[1], c[2])
+            if not _distance(shapes, kind, j, x0, x1, x2) < cluster_radius[k] + reach:
+                continue
+            for i in range(cluster_start[k], cluster_start[k + 1]):
+                x0, x1, x2 = _to_local(frames, j, points[i, 0], points[i, 1], points[i, 2])
+                d = _distance(shapes, kind, j, x0, x1, x2)
+                if not d < reach:
+                    continue
+                hits[j] += 1
+                s = slot[i]
+                if s < 0:
+                    slot[i] = count
+                    found[count] = i
+                    dist[count] = d
+                    count += 1
+                elif d < dist[s]:
+                    dist[s] = d
+    for i in range(count):
+        slot[found[i]] = -1
+    order = np.argsort(dist[:count], kind="mergesort")
+    nodes = np.empty(count, dtype=np.int64)
+    cand_points = np.empty((count, 3))
+    cand_areas = np.empty(count)
+    cand_dist = np.empty(count)
+    for k in range(count):
+        i = found[order[k]]
+        nodes[k] = i
+        for r in range(3):
+            cand_points[k, r] = points[i, r]
+        cand_areas[k] = areas[i]
+        cand_dist[k] = dist[order[k]]
+    return nodes, cand_points, cand_areas, cand_dist, hits
+
+
+@njit(cache=True)
+def evaluate(
+    points,
+    areas,
+    nodes,
+    distance,
+    moved,
+    poses,
+    shapes,
+    prim_info,
+    state_prim,
+    state_anchor,
+    state_delta,
+    k_n,
+    damping_rate,
+    k_t,
+    mu,
+    thickness,
+):
+    """Contact forces of the candidate nodes at one fingertip pose; reads the skin state only.
+
+    Args:
+        points: (M, 3) candidate node positions, sensor frame, sorted by ``distance``.
+        areas: (M,) node areas. nodes: (M,) node indices. distance: (M,) ascending distance
+            of each candidate at selection; only those with ``distance <= moved`` can touch.
+        poses, shapes, prim_info: the fingertip and candidate primitives (module docstring).
+        state_prim, state_anchor, state_delta: (N,), (N, 3), (N,) committed primitive index
+            (-1: not in contact), anchor (primitive frame) and penetration of every node.
+        k_n, damping_rate, k_t, mu, thickness: normal stiffness (Pa/m), normal damping over
+            the time step (Pa/m), tangential stiffness (Pa/m), friction coefficient, skin
+            thickness (m).
+
+    Returns:
+        (count, max_penetration, shell, |force|, wrench (6,), prim_data, node_data,
+        node_ids); the first ``count`` rows of the node arrays are valid.
+    """
+    n_prim = prim_info.shape[0]
+    # Candidates that may touch after a motion of ``moved`` (searchsorted, side="right").
+    lo, hi = 0, distance.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if distance[mid] <= moved:
+            lo = mid + 1
+        else:
+            hi = mid
+    m = lo
+
+    frames = _frames(poses)
+    node_data = np.empty((m, NODE_COLS))
+    node_ids = np.empty((m, 2), dtype=np.int64)
+    prim_data = np.zeros((n_prim, PRIM_COLS))
+    force_sum = np.zeros((n_prim, 3))
+    moment_sum = np.zeros((n_prim, 3))
+    count = 0
+    max_pen = 0.0
+    for i in range(m):
+        # Narrow phase: the most penetrated primitive (the first one on ties).
+        p0, p1, p2 = points[i, 0], points[i, 1], points[i, 2]
+        best_d = np.inf
+        best_j = -1
+        l0 = l1 = l2 = 0.0
+        for j in range(n_prim):
+            x0, x1, x2 = _to_local(frames, j, p0, p1, p2)
+            d = _distance(shapes, prim_info[j, 1], j, x0, x1, x2)
+            if d < best_d:
+                best_d, best_j = d, j
+                l0, l1, l2 = x0, x1, x2
+        if not best_d < 0.0:
+            continue
+        j = best_j
+        delta = -best_d
+        n0, n1, n2 = _normal(shapes, prim_info[j, 1], j, l0, l1, l2)
+
+        node = nodes[i]
+        prim = prim_info[j, 0]
+        # p = k_n delta + c d(delta)/dt, no adhesion; a new contact starts undamped and
+        # anchors where it touched. u: tangential offset from the anchor.
+        if state_prim[node] == prim:
+            delta_prev = state_delta[node]
+            u0 = l0 - state_anchor[node, 0]
+            u1 = l1 - state_anchor[node, 1]
+            u2 = l2 - state_anchor[node, 2]
+        else:
+            delta_prev = delta
+            u0 = u1 = u2 = 0.0
+        pressure = max((delta - delta_prev) * damping_rate + k_n * delta, 0.0)
+        un = u0 * n0 + u1 * n1 + u2 * n2
+        u0 -= un * n0
+        u1 -= un * n1
+        u2 -= un * n2
+        u_sq = u0 * u0 + u1 * u1 + u2 * u2
+        # Coulomb cap: slip moves the anchor so that k_t |u| = mu p.
+        cap = mu * pressure
+        if k_t * k_t * u_sq > cap * cap:
+            scale = cap / (k_t * math.sqrt(u_sq))
+            u0 *= scale
+            u1 *= scale
+            u2 *= scale
+        fn = pressure * areas[i]
+        ft = k_t * areas[i]
+        f0, f1, f2 = n0 * fn - u0 * ft, n1 * fn - u1 * ft, n2 * fn - u2 * ft
+        # The force acts at the deformed point, on the primitive's surface.
+        c0, c1, c2 = l0 + delta * n0, l1 + delta * n1, l2 + delta * n2
+        row = node_data[count]
+        row[LOCAL], row[LOCAL + 1], row[LOCAL + 2] = l0, l1, l2
+        row[NORMAL], row[NORMAL + 1], row[NORMAL + 2] = n0, n1, n2
+        row[ANCHOR], row[ANCHOR + 1], row[ANCHOR + 2] = l0 - u0, l1 - u1, l2 - u2
+        row[FORCE], row[FORCE + 1], row[FORCE + 2] = f0, f1, f2
+        row[POINT], row[POINT + 1], row[POINT + 2] = c0, c1, c2
+        row[DELTA] = delta
+        row[PRESSURE] = pressure
+        force_sum[j, 0] += f0
+        force_sum[j, 1] += f1
+        force_sum[j, 2] += f2
+        # Moment about the primitive frame's origin; shifted to the sensor origin below.
+        moment_sum[j, 0] += c1 * f2 - c2 * f1
+        moment_sum[j, 1] += c2 * f0 - c0 * f2
+        moment_sum[j, 2] += c0 * f1 - c1 * f0
+        node_ids[count, 0] = node
+        node_ids[count, 1] = prim
+        prim_data[j, COUNT] += 1.0
+        max_pen = max(max_pen, delta)
+        count += 1
+
+    wrench = np.zeros(6)
+    rot = poses[0, :3]
+    for j in range(n_prim):
+        out = prim_data[j]
+        for r in range(3):
+            for c in range(3):
+                out[FRAME + 3 * r + c] = frames[j, r, c]
+            out[FRAME + 9 + r] = frames[j, 3, r]
+        if out[COUNT] == 0.0:
+            continue
+        # On the skin, sensor frame: sum (x - b) x f = sum x x f - b x F, rotated by A^T.
+        fx, fy, fz = force_sum[j, 0], force_sum[j, 1], force_sum[j, 2]
+        b = frames[j, 3]
+        mx = moment_sum[j, 0] - (b[1] * fz - b[2] * fy)
+        my = moment_sum[j, 1] - (b[2] * fx - b[0] * fz)
+        mz = moment_sum[j, 2] - (b[0] * fy - b[1] * fx)
+        for c in range(3):
+            out[WRENCH + c] = fx * frames[j, 0, c] + fy * frames[j, 1, c] + fz * frames[j, 2, c]
+            out[WRENCH + 3 + c] = mx * frames[j, 0, c] + my * frames[j, 1, c] + mz * frames[j, 2, c]
+        for c in range(6):
+            wrench[c] += out[WRENCH + c]
+        # On the primitive (Newton's third law), world frame, torque about its centre:
+        # -R f and -R m - (p - centre) x (R f).
+        for r in range(3):
+            fw = rot[r, 0] * out[WRENCH] + rot[r, 1] * out[WRENCH + 1] + rot[r, 2] * out[WRENCH + 2]
+            mw = rot[r, 0] * out[WRENCH + 3] + rot[r, 1] * out[WRENCH + 4]
+            mw += rot[r, 2] * out[WRENCH + 5]
+            out[REACTION + r] = -fw
+            out[REACTION + 3 + r] = -mw
+        for r in range(3):
+            r1, r2 = (r + 1) % 3, (r + 2) % 3
+            lever1 = poses[0, 3, r1] - poses[j + 1, 3, r1]
+            lever2 = poses[0, 3, r2] - poses[j + 1, 3, r2]
+            # -(lever x R f) = lever x reaction force.
+            out[REACTION + 3 + r] += lever1 * out[REACTION + r2] - lever2 * out[REACTION + r1]
+    force = math.sqrt(wrench[0] * wrench[0] + wrench[1] * wrench[1] + wrench[2] * wrench[2])
+    return (
+        count,
+        max_pen,
+        max_pen > thickness,
+        force,
+        wrench,
+        prim_data,
+        node_data,
+        node_ids,
+    )
+
+
+@njit(cache=True)
+def commit(state_prim, state_anchor, state_delta, old_ids, old_count, node_ids, node_data, count):
+    """Make a contact the skin's state: forget the nodes of the previous one, store this one's
+    primitive, anchor and penetration per node (arrays as in ``evaluate``)."""
+    for i in range(old_count):
+        state_prim[old_ids[i, 0]] = -1
+    for i in range(count):
+        node = node_ids[i, 0]
+        state_prim[node] = node_ids[i, 1]
+        for r in range(3):
+            state_anchor[node, r] = node_data[i, ANCHOR + r]
+        state_delta[node] = node_data[i, DELTA]
