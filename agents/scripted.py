@@ -2,26 +2,31 @@
 
 The paper presses the fingertip on the free link's edge at 5 N, measures, lifts, turns the
 link by 30 degrees by hand, and repeats. In simulation the fingertip must turn the link
-itself, and the physics sets two rules (DESIGN.md 2.1-2.2, confirmed in ``ProbeScene``):
+itself, and the physics sets the rules (DESIGN.md 2.1-2.2, confirmed in ``ProbeScene``):
 
-* a plain press says nothing about the edge; a small *sticking shear across the edge* tilts
-  the force and makes the edge observable (about 1-2 deg of error);
-* while the link is being pushed round, the contact slides *along* the edge and the wrench
-  gives a confidently wrong edge (75-90 deg). The env's gate rejects contacts that move that
-  fast, so only the shear probes become measurements.
+* a plain press says nothing about the edge;
+* a sticking shear tilts the force, and the wrench then gives the direction perpendicular
+  to the *shear* (a shear 5 deg off the across-edge direction gives an edge about 10 deg
+  off), so a shear only measures the edge well when it is made across the edge, and not
+  straight after a slide along it (the skin is still loaded along the edge);
+* a slide along the edge keeps the contact on the edge whatever the slide's own direction,
+  so a line through the contact points measures the edge independently (the env's ``trace``
+  measurements);
+* while the link is being pushed round, the contact slides along the edge and the wrench
+  gives a confidently wrong edge; the env's gate rejects such moving contacts.
 
 Each stop is therefore:
 
-1. ``approach``: move straight down until the skin touches (a vertical approach adds no
-   tilt of its own to the force);
+1. ``approach``: move straight down until the skin touches;
 2. ``press``: advance to ``press_force``;
-3. ``shear``: slide the fingertip ``shear_distance`` across the edge (away from the link)
-   while holding the force; the env's gate takes the measurement here;
-4. ``lift``, ``backoff``, ``descend``: rise, step back off the link and come down beside it;
-5. ``push``: push the link round by about ``stop_angle`` (the push distance comes from the
-   lever arm estimated from the turns measured so far);
-6. ``retreat``, ``reposition``: back off, rise, and return above the edge where the push
-   left it, then start the next stop.
+3. ``slide``: slide ``slide_distance`` along the edge while holding the force (alternately
+   toward and away from the hinge), and fit a line through the contact points: the edge as
+   this stop sees it, and the env's ``trace`` measurements;
+4. move round to the link's side (``goto``) and ``push`` it round by about ``stop_angle``,
+   steering the push with the turn; the push distance comes from the lever arm estimated
+   from the turns measured so far. Where the link holds, the push is a sticking press
+   across the edge, which gives wrench measurements;
+5. move back above the edge where the push left it, and start the next stop.
 
 The policy reads only the observation (wrench, fingertip pose, contact estimate) and the
 documented layout of ``HingeProbe-v0``: the fingertip starts a few millimetres above the free
@@ -39,6 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from tactile_gym.sensing import edge_from_trace
+
 __all__ = ["ScriptedConfig", "ScriptedProbePolicy"]
 
 Z = np.array([0.0, 0.0, 1.0])
@@ -51,16 +58,18 @@ class ScriptedConfig:
     Attributes:
         press_force: force of a measuring press, N (the paper's 5 N).
         contact_force: force that ends the approach, N.
-        push_force: force above which the push waits for the link to move, N; below the
-            gate's force band, so a push that stalls gives no measurement.
-        force_gain: advance along the finger axis per newton of force error, m/N.
-        shear_distance: sideways slide across the edge during a measuring press, m.
-        shear_steps: control steps over which the shear is spread.
+        push_force: force above which the push waits for the link to move, N. A push that
+            waits is a sticking press across the edge, which the env measures; a push that
+            turns the link is not measured (the contact moves).
+        stall_steps: control steps a push may wait before it is cut short.
+        force_gain: advance per newton of force error, m/N.
+        slide_distance: slide along the edge at each stop, m.
+        slide_step: slide per control step, m.
         stop_angle: turn of the link between stops, rad (the paper's 30 deg).
-        n_stops: number of measuring presses.
-        nominal_lever: assumed distance from the hinge to the contact before a turn has been
-            measured, m.
-        lift_height: rise after a measuring press, m.
+        n_stops: number of measuring stops.
+        nominal_lever: assumed distance from the hinge to the pushed point before a turn has
+            been measured, m.
+        lift_height: rise above the edge when moving round the link, m.
         clearance: gap kept between the skin and the link when moving round it, m.
         table_clearance: least height of the skin above the table, m.
         hinge_direction: horizontal direction from the free link toward its hinge in the
@@ -69,14 +78,15 @@ class ScriptedConfig:
 
     press_force: float = 5.0
     contact_force: float = 1.0
-    push_force: float = 2.8
+    push_force: float = 6.5
+    stall_steps: int = 6
     force_gain: float = 0.0003
-    shear_distance: float = 0.0008
-    shear_steps: int = 4
+    slide_distance: float = 0.012
+    slide_step: float = 0.001
     stop_angle: float = float(np.deg2rad(30.0))
     n_stops: int = 4
     nominal_lever: float = 0.055
-    lift_height: float = 0.006
+    lift_height: float = 0.004
     clearance: float = 0.002
     table_clearance: float = 0.0015
     hinge_direction: tuple[float, float, float] = (-1.0, 0.0, 0.0)
@@ -124,14 +134,18 @@ class ScriptedProbePolicy:
         self.state = "approach"
         self.stops_done = 0
         self._heading: np.ndarray | None = None  # horizontal, across the edge, into the link
-        self._edges: list[np.ndarray] = []  # edge measured at each stop (horizontal)
+        self._tilt = 0.0  # finger axis from straight down, rad
+        self._edges: list[np.ndarray] = []  # edge of each stop, horizontal, away from hinge
         self._pushes: list[float] = []  # push distance before each later stop, m
-        self._shear_edges: list[np.ndarray] = []
+        self._trace: list[np.ndarray] = []
+        self._waypoints: list[np.ndarray] = []
+        self._after_waypoints = "approach"
         self._counter = 0
         self._rim = np.zeros(3)
-        self._target = np.zeros(3)
         self._pushed = 0.0
         self._push_goal = 0.0
+        self._push_heading = np.zeros(3)
+        self._tip = np.zeros(3)
 
     # ------------------------------------------------------------------ main loop
     def get_action(self, obs: dict) -> np.ndarray:
@@ -143,69 +157,41 @@ class ScriptedProbePolicy:
         tip = pose[:3] + rotation @ self.tip_center
         force = float(np.linalg.norm(obs["wrench"][:3]))
         contact = np.asarray(obs["contact"], dtype=float)
+        touching = contact[0] > 0.5
+        self._tip = tip
         if self._heading is None:
             self._heading = _horizontal(axis)
+            self._tilt = float(np.arccos(np.clip(-axis @ Z, -1.0, 1.0)))
         h = self._heading
-        step = self.max_translation
         move = np.zeros(3)
         rotvec = np.zeros(3)
 
         if self.state == "approach":
-            move = -Z * min(step, 0.001)
+            move = -Z * 0.001
             if force > cfg.contact_force:
                 self.state = "press"
         elif self.state == "press":
             move = -Z * self._force_step(force)
             if abs(force - cfg.press_force) < 0.5:
-                self.state, self._counter, self._shear_edges = "shear", 0, []
-        elif self.state == "shear":
-            move = -h * cfg.shear_distance / cfg.shear_steps - Z * self._force_step(force)
-            self._collect_edge(contact)
-            self._counter += 1
-            if contact[0] > 0.5:
+                self.state, self._counter, self._trace = "slide", 0, []
+        elif self.state == "slide":
+            move = self._slide_direction() * cfg.slide_step - Z * self._force_step(force)
+            if touching:
+                self._trace.append(contact[1:4].copy())
                 self._rim = contact[1:4].copy()
-            if self._counter >= cfg.shear_steps:
-                self._finish_stop()
-        elif self.state == "lift":
-            move = Z * step
-            if tip[2] >= self._target[2]:
-                self.state = "backoff"
-        elif self.state == "backoff":
-            move = -h * step
-            if (self._rim - tip) @ h >= self.outer_radius + cfg.clearance:
-                self.state = "descend"
-        elif self.state == "descend":
-            low = self.outer_radius + cfg.table_clearance
-            move = -Z * min(step, tip[2] - low)
-            if tip[2] - low < 2e-4:
-                self.state, self._pushed = "push", 0.0
-        elif self.state == "push":
-            speed = step if force < 0.3 else (0.0015 if force < cfg.push_force else 0.0)
-            move = h * speed
-            if force >= 0.3:
-                self._pushed += speed
-                if contact[0] > 0.5:
-                    self._rim = contact[1:4].copy()
-            if self._pushed >= self._push_goal or (self._rim - tip) @ h < -0.01:
-                self.state, self._counter = "retreat", 0
-                self._pushes.append(self._pushed)
-        elif self.state == "retreat":
-            move = -h * step + Z * step
             self._counter += 1
-            if self._counter >= 3:
-                self.state = "reposition"
-                self._heading = self._predict_heading()
-                h = self._heading
-                tilt = np.arccos(np.clip(-axis @ Z, -1.0, 1.0))
-                finger = -np.cos(tilt) * Z + np.sin(tilt) * h
-                self._target = self._rim - finger * (self.outer_radius + 0.003)
-        elif self.state == "reposition":
-            error = self._target - tip
-            move = error * min(1.0, step / max(np.linalg.norm(error), 1e-9))
+            if self._counter * cfg.slide_step >= cfg.slide_distance:
+                self._finish_slide()
+                self._finish_stop()
+        elif self.state == "goto":
+            move, done = self._follow_waypoints(tip)
             turn = _signed_angle(_horizontal(axis), h)
             rotvec = Z * float(np.clip(turn, -self.max_rotation, self.max_rotation))
-            if np.linalg.norm(error) < 5e-4 and abs(turn) < np.deg2rad(0.5):
-                self.state = "approach"
+            if done and abs(turn) < np.deg2rad(0.5):
+                self.state = self._after_waypoints
+        elif self.state == "push":
+            move = self._push_step(force, touching, contact, tip)
+
         if self.state != "done":
             low = self.outer_radius + cfg.table_clearance
             if tip[2] + move[2] < low:
@@ -213,37 +199,79 @@ class ScriptedProbePolicy:
         action = np.r_[move / self.max_translation, rotvec / self.max_rotation]
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
-    # ------------------------------------------------------------------ helpers
+    # ------------------------------------------------------------------ phases
     def _force_step(self, force: float) -> float:
-        return float(
-            np.clip(self.config.force_gain * (self.config.press_force - force), -1e-3, 1e-3)
-        )
+        error = self.config.press_force - force
+        return float(np.clip(self.config.force_gain * error, -1e-3, 1e-3))
 
-    def _collect_edge(self, contact: np.ndarray) -> None:
-        if contact[0] > 0.5 and contact[10] < np.deg2rad(6.0):
-            edge = _horizontal(contact[7:10])
-            if self._shear_edges and edge @ self._shear_edges[0] < 0:
-                edge = -edge
-            self._shear_edges.append(edge)
+    def _slide_direction(self) -> np.ndarray:
+        """Along the edge, alternately toward and away from the hinge (stays mid-link)."""
+        along = np.cross(Z, self._heading)
+        toward_hinge = -self._edges[-1] if self._edges else np.asarray(self.config.hinge_direction)
+        if self.stops_done % 2:
+            toward_hinge = -toward_hinge
+        return along if along @ toward_hinge >= 0 else -along
+
+    def _finish_slide(self) -> None:
+        """Fit the edge through the slide's contact points and face across it."""
+        if len(self._trace) < 3:
+            return
+        direction, _ = edge_from_trace(np.asarray(self._trace), point_std=2e-4)
+        if not np.all(np.isfinite(direction)):
+            return
+        edge = _horizontal(direction)
+        across = np.cross(Z, edge)
+        self._heading = across if across @ self._heading >= 0 else -across
+        away = -np.asarray(self.config.hinge_direction) if not self._edges else self._edges[-1]
+        self._edges.append(edge if edge @ away >= 0 else -edge)
 
     def _finish_stop(self) -> None:
         cfg = self.config
-        if self._shear_edges:
-            edge = _horizontal(np.mean(self._shear_edges, axis=0))
-            hinge = np.asarray(cfg.hinge_direction)
-            if edge @ hinge > 0:
-                edge = -edge  # point away from the hinge
-            self._edges.append(edge)
-            across = np.cross(Z, edge)
-            self._heading = across if across @ self._heading >= 0 else -across
         self.stops_done += 1
         if self.stops_done >= cfg.n_stops:
             self.state = "done"
             return
         self._push_goal = self._lever() * cfg.stop_angle
-        self.state = "lift"
-        self._target = self._rim + Z * (cfg.lift_height + self.outer_radius)
+        self._push_heading = self._heading
+        h = self._heading
+        low = self.outer_radius + cfg.table_clearance
+        above = self._tip + Z * cfg.lift_height
+        outside = np.r_[(self._rim - h * (self.outer_radius + cfg.clearance))[:2], above[2]]
+        self._waypoints = [above, outside, np.r_[outside[:2], low]]
+        self._after_waypoints = "push"
+        self.state, self._pushed, self._counter = "goto", 0.0, 0
 
+    def _push_step(self, force: float, touching: bool, contact: np.ndarray, tip: np.ndarray):
+        cfg = self.config
+        speed = self.max_translation if force < 0.3 else (0.0015 if force < cfg.push_force else 0.0)
+        self._counter = self._counter + 1 if speed == 0.0 else 0
+        if force >= 0.3:
+            self._pushed += speed
+            if touching:
+                self._rim = contact[1:4].copy()
+        heading = self._turned_heading(self._pushed)
+        stalled = self._counter >= cfg.stall_steps
+        missed = (self._rim - tip) @ heading < -0.01
+        if stalled or missed or self._pushed >= self._push_goal:
+            self._pushes.append(self._pushed)
+            self._heading = heading
+            above = self._rim + Z * (self.outer_radius + cfg.lift_height)
+            finger = -np.cos(self._tilt) * Z + np.sin(self._tilt) * heading
+            ready = self._rim - finger * (self.outer_radius + 0.003)
+            self._waypoints = [tip - heading * 0.003, above - heading * 0.003, ready]
+            self._after_waypoints = "approach"
+            self.state = "goto"
+        return heading * speed
+
+    def _follow_waypoints(self, tip: np.ndarray) -> tuple[np.ndarray, bool]:
+        while self._waypoints and np.linalg.norm(self._waypoints[0] - tip) < 3e-4:
+            self._waypoints.pop(0)
+        if not self._waypoints:
+            return np.zeros(3), True
+        error = self._waypoints[0] - tip
+        return error * min(1.0, self.max_translation / np.linalg.norm(error)), False
+
+    # ------------------------------------------------------------------ geometry
     def _lever(self) -> float:
         """Distance from the hinge to the pushed point, from the turns measured so far."""
         turns = [np.arccos(np.clip(a @ b, -1.0, 1.0)) for a, b in zip(self._edges, self._edges[1:])]
@@ -252,16 +280,14 @@ class ScriptedProbePolicy:
             return self.config.nominal_lever
         return float(np.clip(np.median(levers), 0.02, 0.12))
 
-    def _predict_heading(self) -> np.ndarray:
-        """Heading after the last push: the link turned by push / lever about its hinge."""
-        h = self._heading
+    def _turned_heading(self, pushed: float) -> np.ndarray:
+        """The push heading once a push of ``pushed`` metres has turned the link."""
+        h = self._push_heading
         if not self._edges:
             return h
-        away = self._edges[-1]
         # Pushing along h at a point on the link turns it so that the point moves along h.
-        sign = np.sign(np.cross(away, h) @ Z) or 1.0
-        angle = sign * self._pushes[-1] / self._lever()
-        return Rotation.from_rotvec(Z * angle).apply(h)
+        sign = np.sign(np.cross(self._edges[-1], h) @ Z) or 1.0
+        return Rotation.from_rotvec(Z * sign * pushed / self._lever()).apply(h)
 
 
 def _signed_angle(a: np.ndarray, b: np.ndarray) -> float:
@@ -270,7 +296,8 @@ def _signed_angle(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def _horizontal(v: np.ndarray) -> np.ndarray:
-    v = np.asarray(v, dtype=float) - (np.asarray(v, dtype=float) @ Z) * Z
+    v = np.asarray(v, dtype=float)
+    v = v - (v @ Z) * Z
     return v / max(np.linalg.norm(v), 1e-12)
 
 

@@ -37,14 +37,15 @@ def test_scripted_policy_measures_and_turns_the_link():
     assert abs(info["joint_angle"]) > np.deg2rad(30.0)
 
 
-@pytest.mark.slow
 def test_scripted_policy_beats_random(tmp_path):
-    scripted = evaluate.evaluate(["scripted", "random"], episodes=10, out=tmp_path, plot=False)
-    # A regression guard on what the baseline achieves today (README evaluation table):
-    # it gets estimates where random gets none, and some episodes come within 5 mm. It does
-    # not yet reach the 2 mm success criterion; see the README's known limitations.
-    assert scripted["scripted"]["position_mean_mm"] < scripted["random"]["position_mean_mm"] - 10
-    assert scripted["scripted"]["reached_5mm_rate"] >= 0.2
+    summaries = evaluate.evaluate(["scripted", "random"], episodes=10, out=tmp_path, plot=False)
+    scripted, random = summaries["scripted"], summaries["random"]
+    # A regression guard on what the baseline achieves (README evaluation table: a median
+    # final error near 14 mm, 45% of episodes within 5 mm at some step). Random actions
+    # never form an estimate (100 mm is the cap).
+    assert scripted["position_median_mm"] < 25.0
+    assert scripted["reached_5mm_rate"] >= 0.2
+    assert random["position_median_mm"] > 2 * scripted["position_median_mm"]
 
 
 def test_scripted_policy_never_reads_the_truth():

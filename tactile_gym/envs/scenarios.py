@@ -172,9 +172,7 @@ def sample_scenario(
         along = rng.uniform(*cfg.start_along_range)
         standoff = rng.uniform(*cfg.standoff_range)
     else:
-        object_config = ObjectConfig.family_default(
-            families[0], holding_torque=cfg.holding_torque
-        )
+        object_config = ObjectConfig.family_default(families[0], holding_torque=cfg.holding_torque)
         angle = 0.0
         along = float(np.mean(cfg.start_along_range))
         standoff = float(np.mean(cfg.standoff_range))

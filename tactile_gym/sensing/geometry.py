@@ -133,9 +133,7 @@ class FingertipGeometry:
         if not np.isfinite(spacing) or spacing <= 0:
             raise ValueError(f"spacing must be > 0 m, got {spacing!r}")
         if not (0.0 <= z_min <= self.cylinder_length):
-            raise ValueError(
-                f"z_min must be in [0, {self.cylinder_length}] m, got {z_min!r}"
-            )
+            raise ValueError(f"z_min must be in [0, {self.cylinder_length}] m, got {z_min!r}")
         r = self.outer_radius
         c = self.sphere_center
 
@@ -146,9 +144,7 @@ class FingertipGeometry:
         cos_polar = 1.0 - (k + 0.5) / n_h
         sin_polar = np.sqrt(1.0 - cos_polar**2)
         azim = k * np.pi * (3.0 - np.sqrt(5.0))
-        n_hemi = np.stack(
-            [sin_polar * np.cos(azim), sin_polar * np.sin(azim), cos_polar], axis=-1
-        )
+        n_hemi = np.stack([sin_polar * np.cos(azim), sin_polar * np.sin(azim), cos_polar], axis=-1)
         p_hemi = c + r * n_hemi
         a_hemi = np.full(n_h, hemi_area / n_h)
 
@@ -164,9 +160,7 @@ class FingertipGeometry:
             # Stagger alternate rings to avoid aligned rows of nodes.
             tt = tt + (np.arange(n_rings)[:, None] % 2) * (np.pi / n_around)
             n_cyl = np.stack([np.cos(tt), np.sin(tt), np.zeros_like(tt)], -1).reshape(-1, 3)
-            p_cyl = n_cyl * r + np.column_stack(
-                [np.zeros(zz.size), np.zeros(zz.size), zz.ravel()]
-            )
+            p_cyl = n_cyl * r + np.column_stack([np.zeros(zz.size), np.zeros(zz.size), zz.ravel()])
             a_cyl = np.full(len(p_cyl), 2.0 * np.pi * r * dz / n_around)
         else:
             n_cyl = np.zeros((0, 3))

@@ -1,9 +1,9 @@
 """Analytic collision primitives for the skin: rounded boxes and the table plane.
 
 Each primitive has a pose in the world frame (``center``, ``rotation`` whose columns are its
-local axes) and a signed distance in its *local* frame (negative inside). The skin evaluates
-nodes in the primitive's local frame, so one 3x3 matrix product per primitive moves all nodes
-there. Units: metres.
+local axes) and a signed distance in its *local* frame (negative inside). The skin's kernels
+(``tactile_gym/sim/_kernels.py``) evaluate nodes in the primitive's local frame; the functions
+here serve the broad phase's set-up and tests. Units: metres.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Plane", "RoundedBox", "rounded_box_distance", "rounded_box_sdf"]
+__all__ = ["Plane", "RoundedBox", "rounded_box_sdf"]
 
 
 def rounded_box_sdf(
@@ -42,53 +42,6 @@ def rounded_box_sdf(
     return d, n * s
 
 
-def rounded_box_distance(x: np.ndarray, inner_half: np.ndarray, radius: float) -> np.ndarray:
-    """Signed distance only (faster than ``rounded_box_sdf``); ``inner_half`` = half - radius.
-
-    Args:
-        x: (N, 3) points in the box frame, m; not modified.
-        inner_half: (3,) half extents minus the rounding radius, m.
-        radius: rounding radius, m.
-    """
-    q = np.abs(x)
-    q -= inner_half
-    qmax = q.max(axis=1)
-    np.maximum(q, 0.0, out=q)
-    d = np.sqrt(np.einsum("ij,ij->i", q, q))
-    d += np.minimum(qmax, 0.0)
-    d -= radius
-    return d
-
-
-def rounded_box_distance_soa(x: np.ndarray, inner_half: np.ndarray, radius: float) -> np.ndarray:
-    """``rounded_box_distance`` for points stored as columns: x is (3, N), box frame."""
-    q = np.abs(x)
-    q -= inner_half[:, None]
-    qmax = np.maximum(np.maximum(q[0], q[1]), q[2])
-    np.maximum(q, 0.0, out=q)
-    q *= q
-    d = np.sqrt(q.sum(axis=0))
-    d += np.minimum(qmax, 0.0)
-    d -= radius
-    return d
-
-
-def rounded_box_normal_soa(x: np.ndarray, inner_half: np.ndarray) -> np.ndarray:
-    """Outward unit normals (3, N) of a rounded box at points (3, N) in the box frame.
-
-    Outside the inner box the normal points from its nearest point; inside it, along the
-    axis of the nearest face.
-    """
-    q = np.abs(x)
-    q -= inner_half[:, None]
-    qp = np.maximum(q, 0.0)
-    outer = np.sqrt((qp * qp).sum(axis=0))
-    face = (q == np.maximum(np.maximum(q[0], q[1]), q[2])).astype(float)
-    rounded = outer > 1e-12
-    n = np.where(rounded, qp / np.where(rounded, outer, 1.0), face)
-    return np.copysign(n, x)
-
-
 @dataclass
 class RoundedBox:
     """A box with rounded edges, posed in the world frame.
@@ -114,14 +67,6 @@ class RoundedBox:
     def local_sdf(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Signed distance and normal for (N, 3) points in the box frame."""
         return rounded_box_sdf(x, self.half_extents, self.radius)
-
-    def local_distance(self, x: np.ndarray) -> np.ndarray:
-        """Signed distance for (3, N) points (columns) in the box frame, m."""
-        return rounded_box_distance_soa(x, self.inner_half, self.radius)
-
-    def local_normal(self, x: np.ndarray) -> np.ndarray:
-        """Outward unit normals (3, N) at (3, N) points in the box frame."""
-        return rounded_box_normal_soa(x, self.inner_half)
 
     def world_aabb(self) -> tuple[np.ndarray, np.ndarray]:
         """Axis-aligned bounding box in the world frame: (lower, upper), m."""
@@ -151,16 +96,6 @@ class Plane:
         n = np.zeros_like(x)
         n[:, 2] = 1.0
         return x[:, 2] - self.height, n
-
-    def local_distance(self, x: np.ndarray) -> np.ndarray:
-        """Signed distance for (3, N) local points (columns), m."""
-        return x[2] - self.height
-
-    def local_normal(self, x: np.ndarray) -> np.ndarray:
-        """Outward unit normals (3, N): +z."""
-        n = np.zeros_like(x)
-        n[2] = 1.0
-        return n
 
     def world_aabb(self) -> tuple[np.ndarray, np.ndarray]:
         big = 1e9
