@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import functools
 import shlex
 import sys
 import time
@@ -26,6 +27,15 @@ CONFIG_DIR = Path(__file__).resolve().parents[1] / "configs"
 ALGOS = ("ppo", "sac")
 #: Keys of a training config that are not constructor arguments of the algorithm.
 RUN_KEYS = ("policy", "n_timesteps", "n_envs", "normalize", "env_kwargs")
+
+
+def make_env(env_id: str, **env_kwargs):
+    """``gym.make`` after importing tactile_gym, so that worker processes know the ids."""
+    import gymnasium as gym
+
+    import tactile_gym  # noqa: F401 - registers the envs in this process
+
+    return gym.make(env_id, **env_kwargs)
 
 
 def load_hyperparameters(algo: str, env_id: str, config_path: Path | None = None) -> dict:
@@ -131,10 +141,9 @@ def train(
 
     env_kwargs = dict(config.get("env_kwargs") or {})
     vec_cls = SubprocVecEnv if vec_env == "subproc" and config["n_envs"] > 1 else DummyVecEnv
-    env = make_vec_env(
-        env_id, n_envs=config["n_envs"], seed=seed, vec_env_cls=vec_cls, env_kwargs=env_kwargs
-    )
-    eval_env = make_vec_env(env_id, n_envs=1, seed=seed + 10_000, env_kwargs=env_kwargs)
+    factory = functools.partial(make_env, env_id, **env_kwargs)
+    env = make_vec_env(factory, n_envs=config["n_envs"], seed=seed, vec_env_cls=vec_cls)
+    eval_env = make_vec_env(factory, n_envs=1, seed=seed + 10_000)
     if config.get("normalize"):
         env = VecNormalize(env, gamma=config.get("gamma", 0.99))
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)

@@ -68,7 +68,7 @@ def test_training_smoke(tmp_path):
             "--n-timesteps",
             "64",
             "--n-envs",
-            "1",
+            "2",
             "--log-folder",
             str(tmp_path),
             "--eval-freq",
@@ -81,6 +81,8 @@ def test_training_smoke(tmp_path):
         ]
     )
     record = yaml.safe_load((run_dir / "config.yml").read_text())
+    # Two envs run in worker processes, which must register the ids themselves.
+    assert record["hyperparameters"]["n_envs"] == 2
     assert record["hyperparameters"]["n_timesteps"] == 64
     assert record["command"].startswith("python -m agents.train")
     assert (run_dir / "final_model.zip").exists()
@@ -99,7 +101,7 @@ def _tiny_config(tmp_path):
             "n_timesteps": 64,
             "n_envs": 1,
             "normalize": True,
-            "n_steps": 32,
+            "n_steps": 16,
             "batch_size": 32,
             "n_epochs": 1,
         }
