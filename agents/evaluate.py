@@ -52,14 +52,20 @@ class ModelPolicy:
         from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
         path = Path(path)
-        run_dir = path.parent if path.parent.name != "checkpoints" else path.parent.parent
+        in_checkpoints = path.parent.name == "checkpoints"
+        run_dir = path.parent.parent if in_checkpoints else path.parent
         algo = "ppo"
         config_file = run_dir / "config.yml"
         if config_file.exists():
             algo = yaml.safe_load(config_file.read_text())["algo"]
         self.model = {"ppo": PPO, "sac": SAC}[algo].load(path, device="cpu")
         self.normalizer = None
+        # A checkpoint has its own normalisation statistics (CheckpointCallback names them
+        # rl_model_vecnormalize_<steps>_steps.pkl); other models use the run's final ones.
         stats = run_dir / "vecnormalize.pkl"
+        if in_checkpoints:
+            name = path.stem.replace("rl_model_", "rl_model_vecnormalize_")
+            stats = path.with_name(name + ".pkl")
         if stats.exists():
             dummy = DummyVecEnv([lambda: env])
             self.normalizer = VecNormalize.load(str(stats), dummy)
