@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tactile_gym.envs.plotting import draw_estimate, draw_measurements
 from tactile_gym.envs.scenarios import probed_edge, quaternion_z_to
 from tactile_gym.estimation import fit_axis_planar, fit_axis_simple
 from tactile_gym.sensing import estimate_contact
@@ -175,14 +176,8 @@ def plot(results: dict, truth: np.ndarray, out: Path) -> list[Path]:
         fig, axes = plt.subplots(1, 2, figsize=(9, 4.5), sharex=True, sharey=True)
         for ax, method in zip(axes, ("proposed", "simple")):
             for t in runs:
-                ok = np.all(np.isfinite(t.edges), axis=1)
-                ax.plot(t.points[:, 0] * 1e3, t.points[:, 1] * 1e3, "s", color="tab:green", ms=3)
-                for x, e in zip(t.points[ok], t.edges[ok]):
-                    seg = np.array([x - 0.03 * e, x + 0.03 * e]) * 1e3
-                    ax.plot(seg[:, 0], seg[:, 1], color="tab:green", lw=0.5, alpha=0.6)
-                est = getattr(t, method) * 1e3
-                ax.plot(est[0], est[1], "x", color="tab:red", ms=7)
-            ax.plot(truth[0] * 1e3, truth[1] * 1e3, "o", mfc="none", color="tab:blue", ms=10)
+                draw_measurements(ax, t.points, t.edges)
+                draw_estimate(ax, np.r_[truth, 0.0], np.r_[getattr(t, method), 0.0])
             ax.set_title(f"{method} method")
             ax.set_xlabel("x [mm]")
             ax.set_aspect("equal")

@@ -32,7 +32,8 @@ def _run_scripted(seed: int) -> dict:
 def test_scripted_policy_measures_and_turns_the_link():
     info = _run_scripted(seed=0)
     assert info["n_measurements"] >= 4
-    assert np.isfinite(info["position_error"])
+    # The error fell from the cap (100 mm, no estimate) to a few centimetres or less.
+    assert info["position_error"] < 0.05
     # The pushes turned the link by more than the 30 deg of one stop.
     assert abs(info["joint_angle"]) > np.deg2rad(30.0)
 

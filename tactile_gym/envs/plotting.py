@@ -1,0 +1,71 @@
+"""Top-view plots in the style of the paper's Fig. 12/13 (needs matplotlib, the ``plot`` extra).
+
+Everything is drawn in the world x-y plane, in millimetres: measured contact points (green
+squares) with their edge directions (green lines), the true joint axis (blue circle) and the
+estimate (red cross).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["draw_estimate", "draw_measurements", "plot_top_view"]
+
+MM = 1e3
+
+
+def draw_measurements(ax, points: np.ndarray, edges: np.ndarray, length: float = 0.03) -> None:
+    """Contact points (N, 3) and edge directions (N, 3), world frame, m; NaN edges skipped."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    edges = np.asarray(edges, dtype=float).reshape(-1, 3)
+    ax.plot(points[:, 0] * MM, points[:, 1] * MM, "s", color="tab:green", ms=3)
+    for x, e in zip(points, edges):
+        if np.all(np.isfinite(e)) and np.all(np.isfinite(x)):
+            seg = np.array([x - length * e, x + length * e]) * MM
+            ax.plot(seg[:, 0], seg[:, 1], color="tab:green", lw=0.5, alpha=0.6)
+
+
+def draw_estimate(ax, true_point: np.ndarray, estimate_point: np.ndarray | None) -> None:
+    """The true axis point (blue circle) and the estimate (red cross), world x-y, m."""
+    ax.plot(true_point[0] * MM, true_point[1] * MM, "o", mfc="none", color="tab:blue", ms=10)
+    if estimate_point is not None and np.all(np.isfinite(estimate_point)):
+        ax.plot(estimate_point[0] * MM, estimate_point[1] * MM, "x", color="tab:red", ms=8)
+
+
+def plot_top_view(env, ax=None):
+    """Top view of a ``HingeProbeEnv`` episode so far: its measurements, the free link's edge
+    now, and the true and estimated axes.
+
+    Args:
+        env: a ``HingeProbeEnv`` (``gym.make(...).unwrapped``) after ``reset``.
+        ax: a matplotlib axes; a new figure is made when None.
+
+    Returns:
+        The axes.
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5, 5))
+    scene = env.scene
+    if env.measurements:
+        points = np.array([m.point for m in env.measurements])
+        edges = np.array([m.edge for m in env.measurements])
+        draw_measurements(ax, points, edges)
+    origin, direction = scene.edge_line
+    link = np.array([origin, origin + 0.1 * direction]) * MM
+    ax.plot(link[:, 0], link[:, 1], color="grey", lw=2, label="free link edge (now)")
+    true_point, _ = scene.true_axis
+    estimate = env.axis_estimate
+    estimate_point = None
+    if estimate is not None and not estimate.degenerate:
+        # The estimated axis where it crosses the plane of the true pin.
+        u = estimate.direction
+        if abs(u[2]) > 1e-6:
+            estimate_point = estimate.point + u * (true_point[2] - estimate.point[2]) / u[2]
+    draw_estimate(ax, true_point, estimate_point)
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.set_aspect("equal")
+    ax.set_title(f"{len(env.measurements)} measurements")
+    return ax
