@@ -60,27 +60,23 @@ def test_scripted_policy_never_reads_the_truth():
     np.testing.assert_array_equal(policy.get_action(obs), action)
 
 
-def test_training_smoke(tmp_path):
+TINY = {
+    "ppo": {"n_steps": 16, "batch_size": 32, "n_epochs": 1},
+    "sac": {"buffer_size": 1000, "learning_starts": 16, "batch_size": 16},
+}
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_training_smoke(tmp_path, algo):
     pytest.importorskip("stable_baselines3")
+    config = tmp_path / f"{algo}.yml"
+    hyper = {"policy": "MultiInputPolicy", "n_timesteps": 64, "n_envs": 1, "normalize": True}
+    config.write_text(yaml.safe_dump({"default": {**hyper, **TINY[algo]}}))
     run_dir = train.main(
-        [
-            "--algo",
-            "ppo",
-            "--n-timesteps",
-            "64",
-            "--n-envs",
-            "2",
-            "--log-folder",
-            str(tmp_path),
-            "--eval-freq",
-            "0",
-            "--checkpoint-freq",
-            "0",
-            "--no-progress-bar",
-            "--config",
-            str(_tiny_config(tmp_path)),
-        ]
-    )
+        ["--algo", algo, "--n-timesteps", "64", "--n-envs", "2", "--log-folder", str(tmp_path),
+         "--eval-freq", "0", "--checkpoint-freq", "0", "--no-progress-bar", "--config",
+         str(config)]
+    )  # fmt: skip
     record = yaml.safe_load((run_dir / "config.yml").read_text())
     # Two envs run in worker processes, which must register the ids themselves.
     assert record["hyperparameters"]["n_envs"] == 2
@@ -88,27 +84,9 @@ def test_training_smoke(tmp_path):
     assert record["command"].startswith("python -m agents.train")
     assert (run_dir / "final_model.zip").exists()
     assert (run_dir / "vecnormalize.pkl").exists()
-    summaries = evaluate.evaluate(
-        [str(run_dir / "final_model.zip")], episodes=1, out=tmp_path / "eval", plot=False
-    )
-    assert summaries[str(run_dir / "final_model.zip")]["episodes"] == 1
-
-
-def _tiny_config(tmp_path):
-    path = tmp_path / "ppo.yml"
-    config = {
-        "default": {
-            "policy": "MultiInputPolicy",
-            "n_timesteps": 64,
-            "n_envs": 1,
-            "normalize": True,
-            "n_steps": 16,
-            "batch_size": 32,
-            "n_epochs": 1,
-        }
-    }
-    path.write_text(yaml.safe_dump(config))
-    return path
+    model = str(run_dir / "final_model.zip")
+    summaries = evaluate.evaluate([model], episodes=1, out=tmp_path / "eval", plot=False)
+    assert summaries[model]["episodes"] == 1
 
 
 def test_hyperparameters_resolve_per_env():
