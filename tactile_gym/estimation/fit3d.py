@@ -55,7 +55,6 @@ from tactile_gym.estimation.axis import (
     as_weights,
     canonical_direction,
     degenerate_estimate,
-    resolve_sign_against,
     stds_from_covariance,
 )
 
@@ -148,9 +147,20 @@ def fit_axis_3d(
 
 def orient_edges(e: np.ndarray) -> np.ndarray:
     """Orient unit edges (N, 3) consistently, each like its best-aligned recent predecessor."""
+    # Plain Python: the per-row numpy calls of resolve_sign_against cost more than the math.
+    rows = e.tolist()
+    flips = []
+    for i, ei in enumerate(rows):
+        best = 0.0
+        for pj in rows[max(0, i - SIGN_LOOKBACK) : i]:
+            dot = ei[0] * pj[0] + ei[1] * pj[1] + ei[2] * pj[2]
+            if abs(dot) > abs(best):
+                best = dot
+        if best < 0.0:
+            rows[i] = [-ei[0], -ei[1], -ei[2]]
+            flips.append(i)
     out = e.copy()
-    for i in range(1, out.shape[0]):
-        out[i] = resolve_sign_against(out[i], out[max(0, i - SIGN_LOOKBACK) : i])
+    out[flips] *= -1.0
     return out
 
 
@@ -172,6 +182,16 @@ class _Problem:
         self.length = max(spread, 1e-3)
         self.f_scale = f_scale
         self.n = x.shape[0]
+
+    @property
+    def e(self) -> np.ndarray:
+        return self._e
+
+    @e.setter
+    def e(self, value: np.ndarray) -> None:
+        # The design rows (x_i x e_i, e_i) follow the edges' orientation.
+        self._e = value
+        self.xe = _design(self.x, value)
 
 
 def _fit(x, e, w, sx, se, loss, f_scale, parallel_tol) -> AxisEstimate:
@@ -255,7 +275,8 @@ def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
             continue
         sub = _Problem.__new__(_Problem)
         sub.__dict__.update(prob.__dict__)
-        sub.x, sub.e, sub.n = prob.x[idx], prob.e[idx], 3
+        sub.x, sub.n = prob.x[idx], 3
+        sub.e = prob.e[idx]
         sub.sqrt_w = prob.sqrt_w[idx]
         sub.sx = None if prob.sx is None else prob.sx[idx]
         sub.se = None if prob.se is None else prob.se[idx]
@@ -417,46 +438,130 @@ def _linear_init(prob: _Problem, wh: np.ndarray):
     return u, p, k, c
 
 
-def _residuals_general(prob, wh, u0, b1, b2):
-    x, e = prob.x, prob.e
-    w00, w10, w11 = wh[:, 0], wh[:, 1], wh[:, 2]
+def _design(x: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """(N, 6) rows ``(x_i x e_i, e_i)``: ``r1_i = row_i . (u, m_a) - k`` (Pluecker form)."""
+    out = np.empty((x.shape[0], 6))
+    out[:, 0:3] = _cross(x, e)
+    out[:, 3:6] = e
+    return out
+
+
+def _linearise(prob, wh, u, p, k, c, jacobian=True):
+    """Whitened residuals (2N,) and their Jacobian (2N, 6) at (u, p, k, c).
+
+    Local parameters ``(alpha, beta, s1, s2, k, c)``: u moved to ``normalise(u + alpha b1
+    + beta b2)``, p to ``s1 b1 + s2 b2`` (``(b1, b2, u)`` from :func:`_basis`). Everything
+    comes from one product of the cached design rows with a 6 x 6 matrix: with
+    ``r1 = m_i . u + e_i . m_a - k``, ``d r1 / d alpha = (x_i - p) x e_i . b1 = m_i . b1 +
+    e_i . (p x b1)``, ``d r1 / d s1 = -e_i . (u x b1) = -e_i . b2``, ``d r1 / d s2 = e_i . b1``
+    and ``r2 = e_i . u - c``.
+    """
     n = prob.n
+    b1, b2 = _basis(u)
+    q = np.zeros((6, 6))
+    q[0:3, 0] = u
+    q[3:6, 0] = _cross3(p, u)
+    q[3:6, 5] = u
+    if jacobian:
+        q[0:3, 1] = b1
+        q[3:6, 1] = _cross3(p, b1)
+        q[0:3, 2] = b2
+        q[3:6, 2] = _cross3(p, b2)
+        q[3:6, 3] = -b2
+        q[3:6, 4] = b1
+    a = prob.xe @ q
+    r1 = a[:, 0] - k
+    r2 = a[:, 5] - c
+    w00, w10, w11 = wh[:, 0], wh[:, 1], wh[:, 2]
+    z = np.empty(2 * n)
+    z[:n] = w00 * r1
+    z[n:] = w10 * r1 + w11 * r2
+    if not jacobian:
+        return z, None, b1, b2
+    jm = np.zeros((2 * n, 6))
+    j1 = a[:, 1:5]
+    jm[:n, 0:4] = w00[:, None] * j1
+    jm[:n, 4] = -w00
+    jm[n:, 0:4] = w10[:, None] * j1
+    jm[n:, 0] += w11 * a[:, 4]
+    jm[n:, 1] -= w11 * a[:, 3]
+    jm[n:, 4] = -w10
+    jm[n:, 5] = -w11
+    return z, jm, b1, b2
 
-    def unpack(t):
-        v = u0 + t[0] * b1 + t[1] * b2
-        nv = math.sqrt(float(v @ v))
-        return v / nv, nv, t[2] * b1 + t[3] * b2
 
-    def fun(t):
-        u, _, p = unpack(t)
-        mom = _cross(x - p, e)
-        r1 = mom @ u - t[4]
-        r2 = e @ u - t[5]
-        out = np.empty(2 * n)
-        out[:n] = w00 * r1
-        out[n:] = w10 * r1 + w11 * r2
-        return out
+def _loss_cost(z: np.ndarray, loss: str, f_scale: float) -> float:
+    """scipy's least_squares cost ``0.5 f^2 sum rho((z / f)^2)`` of whitened residuals."""
+    if loss == "linear":
+        return 0.5 * float(z @ z)
+    s = (z / f_scale) ** 2
+    if loss == "soft_l1":
+        rho = 2.0 * (np.sqrt(1.0 + s) - 1.0)
+    elif loss == "huber":
+        rho = np.where(s <= 1.0, s, 2.0 * np.sqrt(s) - 1.0)
+    else:  # cauchy
+        rho = np.log1p(s)
+    return 0.5 * f_scale * f_scale * float(rho.sum())
 
-    def jac(t):
-        u, nv, p = unpack(t)
-        mom = _cross(x - p, e)
-        ju = (np.eye(3) - np.outer(u, u)) / nv @ np.column_stack([b1, b2])
-        j1 = np.empty((n, 6))
-        j1[:, 0:2] = mom @ ju
-        # d r1 / d s_j = -u . (b_j x e_i) = -e_i . (u x b_j)
-        j1[:, 2] = -(e @ _cross3(u, b1))
-        j1[:, 3] = -(e @ _cross3(u, b2))
-        j1[:, 4] = -1.0
-        j1[:, 5] = 0.0
-        j2 = np.zeros((n, 6))
-        j2[:, 0:2] = e @ ju
-        j2[:, 5] = -1.0
-        out = np.empty((2 * n, 6))
-        out[:n] = w00[:, None] * j1
-        out[n:] = w10[:, None] * j1 + w11[:, None] * j2
-        return out
 
-    return fun, jac
+_SOLVER_MAX_ITER = 50
+
+
+def _solve_general(prob, wh, u, p, k, c, f_scale):
+    """Minimise the (robust) cost of the whitened residuals from (u, p, k, c).
+
+    Levenberg-Marquardt on the local parameterisation of :func:`_linearise`. Robust losses
+    take Newton-like steps: the gradient weighted by ``rho'`` and the Gauss-Newton matrix by
+    the residual's exact curvature ``rho' + 2 s rho''`` (clipped from below), so that they
+    converge as fast as plain least squares. A step is kept only when the cost drops. Plain
+    NumPy: for the few dozen residuals here scipy's least_squares spent most of its time in
+    bookkeeping. Warm starts (the online estimator) converge in one or two iterations.
+    """
+    loss = prob.loss
+    z, jm, b1, b2 = _linearise(prob, wh, u, p, k, c)
+    cost = _loss_cost(z, loss, f_scale)
+    lam = 0.0
+    ang_tol = 1e-11
+    pos_tol = 1e-11 * prob.length
+    for _ in range(_SOLVER_MAX_ITER):
+        if loss == "linear":
+            g = jm.T @ z
+            h = jm.T @ jm
+        else:
+            rw, hw = _robust_weights(z, loss, f_scale, curvature=True)
+            g = jm.T @ (rw * z)
+            h = (jm * hw[:, None]).T @ jm
+        dh = np.diag(h) * lam
+        s1, s2 = float(p @ b1), float(p @ b2)
+        while True:
+            try:
+                step = np.linalg.solve(h + np.diag(dh), -g)
+            except np.linalg.LinAlgError:
+                step = np.linalg.lstsq(h + np.diag(dh), -g, rcond=None)[0]
+            sl = step.tolist()
+            tiny = abs(sl[0]) + abs(sl[1]) < ang_tol and abs(sl[2]) + abs(sl[3]) < pos_tol
+            v = u + sl[0] * b1 + sl[1] * b2
+            un = v / math.sqrt(float(v @ v))
+            pn = (s1 + sl[2]) * b1 + (s2 + sl[3]) * b2
+            pn = pn - (pn @ un) * un
+            kn, cn = k + sl[4], c + sl[5]
+            zn, _, _, _ = _linearise(prob, wh, un, pn, kn, cn, jacobian=False)
+            new = _loss_cost(zn, loss, f_scale)
+            if new <= cost:
+                break
+            if tiny:
+                return u, p, k, c
+            lam = max(10.0 * lam, 1e-6)
+            dh = np.diag(h) * lam
+            if lam > 1e10:
+                return u, p, k, c
+        lam = 0.1 * lam if lam > 1e-9 else 0.0
+        done = tiny or cost - new <= 1e-10 * cost
+        u, p, k, c, cost = un, pn, kn, cn, new
+        if done:
+            break
+        z, jm, b1, b2 = _linearise(prob, wh, u, p, k, c)
+    return u, p, k, c
 
 
 def _fit_general(prob: _Problem) -> AxisEstimate:
@@ -490,29 +595,7 @@ def _whitening_scale_only(prob: _Problem) -> np.ndarray:
 
 def _refine_general(prob, u, p, k, c, wh):
     f_scale = _resolve_f_scale(prob, u, p, k, c, wh)
-    b1, b2 = _basis(u)
-    t0 = np.array([0.0, 0.0, p @ b1, p @ b2, k, c])
-    fun, jac = _residuals_general(prob, wh, u, b1, b2)
-    if prob.loss == "linear" and 2 * prob.n >= 6:
-        sol = least_squares(fun, t0, jac=jac, method="lm", x_scale="jac", xtol=1e-10, ftol=1e-10)
-    else:
-        sol = least_squares(
-            fun,
-            t0,
-            jac=jac,
-            method="trf",
-            loss=prob.loss,
-            f_scale=f_scale,
-            x_scale="jac",
-            xtol=1e-10,
-            ftol=1e-10,
-        )
-    t = sol.x
-    v = u + t[0] * b1 + t[1] * b2
-    u = v / np.linalg.norm(v)
-    p = t[2] * b1 + t[3] * b2
-    p = p - (p @ u) * u
-    k, c = float(t[4]), float(t[5])
+    u, p, k, c = _solve_general(prob, wh, u, p, k, c, f_scale)
     if prob.sx is not None:
         wh = _whitening_general(prob, u, p)
     return u, p, k, c, wh
@@ -523,9 +606,7 @@ def _resolve_f_scale(prob, u, p, k, c, wh) -> float:
         return prob.f_scale
     if prob.sx is not None or prob.loss == "linear":
         return 2.0
-    b1, b2 = _basis(u)
-    fun, _ = _residuals_general(prob, wh, u, b1, b2)
-    r = fun(np.array([0.0, 0.0, p @ b1, p @ b2, k, c]))
+    r, _, _, _ = _linearise(prob, wh, u, p, k, c, jacobian=False)
     mad = float(np.median(np.abs(r)))
     return max(2.0 * 1.4826 * mad, 1e-9)
 
@@ -544,22 +625,30 @@ def _reorient(prob, u, p, k, c) -> bool:
     return False
 
 
-def _robust_weights(r: np.ndarray, loss: str, f_scale: float) -> np.ndarray:
-    """IRLS weights rho'(z), z = (r / f_scale)^2, of scipy's losses."""
-    z = (r / f_scale) ** 2
+def _robust_weights(r: np.ndarray, loss: str, f_scale: float, curvature: bool = False):
+    """IRLS weights rho'(s), s = (r / f_scale)^2, of scipy's losses.
+
+    With ``curvature`` also the weights of the Newton matrix, the second derivative of
+    ``0.5 rho(s)`` in r: ``rho' + 2 s rho''``, clipped to at least ``0.05 rho'`` (Cauchy's
+    is negative far out).
+    """
+    s = (r / f_scale) ** 2
     if loss == "soft_l1":
-        return 1.0 / np.sqrt(1.0 + z)
+        w = 1.0 / np.sqrt(1.0 + s)
+        return (w, w * w * w) if curvature else w
     if loss == "huber":
-        return np.where(z <= 1.0, 1.0, 1.0 / np.sqrt(np.maximum(z, 1.0)))
+        out = s > 1.0
+        w = np.where(out, 1.0 / np.sqrt(np.maximum(s, 1.0)), 1.0)
+        return (w, np.where(out, 0.05 * w, 1.0)) if curvature else w
     if loss == "cauchy":
-        return 1.0 / (1.0 + z)
-    return np.ones_like(r)
+        w = 1.0 / (1.0 + s)
+        return (w, np.maximum((1.0 - s) * w * w, 0.05 * w)) if curvature else w
+    w = np.ones_like(r)
+    return (w, w) if curvature else w
 
 
-def _covariance_local(prob, fun, jac, t, n_params, f_scale):
-    """(cov, cond, rms-free) of the local parameters from the Jacobian at the solution."""
-    r = fun(t)
-    jm = jac(t)
+def _covariance_local(prob, r, jm, n_params, f_scale):
+    """(cov, cond) of the local parameters from the residuals and Jacobian at the solution."""
     rho = _robust_weights(r, prob.loss, f_scale)
     jw = jm * np.sqrt(rho)[:, None]
     col = np.linalg.norm(jw, axis=0)
@@ -580,11 +669,9 @@ def _covariance_local(prob, fun, jac, t, n_params, f_scale):
 
 
 def _finish_general(prob, u, p, k, c, wh) -> AxisEstimate:
-    b1, b2 = _basis(u)
-    t = np.array([0.0, 0.0, p @ b1, p @ b2, k, c])
-    fun, jac = _residuals_general(prob, wh, u, b1, b2)
+    z, jm, b1, b2 = _linearise(prob, wh, u, p, k, c)
     f_scale = _resolve_f_scale(prob, u, p, k, c, wh)
-    cov_local, cond = _covariance_local(prob, fun, jac, t, 6, f_scale)
+    cov_local, cond = _covariance_local(prob, z, jm, 6, f_scale)
     if cov_local is None:
         return degenerate_estimate("3d", prob.n, planar=False)
     sin_t = math.sqrt(max(1.0 - c * c, 1e-300))
@@ -742,7 +829,7 @@ def _fit_parallel(prob: _Problem, mean_dir: np.ndarray, tol: float) -> AxisEstim
     b1, b2 = _basis(u)
     fun, jac = _residuals_parallel(prob, wh, u, b1, b2)
     t = np.array([0.0, 0.0, p @ b1, p @ b2, d])
-    cov_local, cond = _covariance_local(prob, fun, jac, t, 5, f_scale)
+    cov_local, cond = _covariance_local(prob, fun(t), jac(t), 5, f_scale)
     if cov_local is None:
         return degenerate_estimate("3d-parallel", prob.n, planar=False)
     wv = prob.x - p
