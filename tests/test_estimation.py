@@ -387,6 +387,68 @@ def test_online_3d() -> None:
     assert est.edges.shape == (len(pts), 3)
 
 
+def _online_3d_stream(seed: int, n: int = 24, wild: tuple[int, ...] = (7, 13, 19)):
+    rng = np.random.default_rng(seed)
+    p, u, pts, eds = _tilted_case(rng, n=n)
+    eds[list(wild)] = rng.normal(size=(len(wild), 3))
+    online = JointAxisEstimator("3d")
+    for x, e in zip(pts, eds, strict=True):
+        online.add(x, e, SIGMA_X, SIGMA_E)
+        result = online.estimate()
+    return p, u, pts, eds, online, result
+
+
+def test_online_3d_warm_start_matches_batch_fit(monkeypatch) -> None:
+    """The warm-started online refits converge to the batch fit's minimum; no drift.
+
+    Compared on the measurements the online fit kept: the batch fit of those (when its own
+    consensus keeps them all) must agree to a small fraction of the estimate's own std.
+    Against the batch fit of all measurements (wild edges included) they agree as closely
+    whenever both keep the same measurements (most streams); otherwise the two consensus
+    sets differ by a borderline measurement and the estimates by up to about one std.
+    """
+    from tactile_gym.estimation import online as online_mod
+
+    calls = {"warm": 0}
+    real_update = online_mod._update_state
+
+    def counting_update(*args):
+        out = real_update(*args)
+        calls["warm"] += out is not None
+        return out
+
+    monkeypatch.setattr(online_mod, "_update_state", counting_update)
+    streams = [_online_3d_stream(seed) for seed in range(10)]
+    # The warm-started path did a good part of the 210 updates (the rest: full refits
+    # every 25 % of growth and when a new measurement is an outlier under the estimate).
+    assert calls["warm"] >= 80
+    close = same = 0
+    for p, u, pts, eds, online, result in streams:
+        assert result is not None
+        # Same measurements, same edge orientation: same minimum.
+        state = online._state
+        kept = fit_axis_3d(
+            pts[state.mask],
+            state.edges[state.mask],
+            point_std=SIGMA_X,
+            edge_std=SIGMA_E,
+            loss="soft_l1",
+            resolve_signs=False,
+        )
+        if kept.n_used == result.n_used:  # its consensus kept them all (nearly always)
+            pos, ang = axis_error(result, kept.point, kept.direction)
+            assert pos <= 0.05 * kept.position_std and ang <= 0.05 * kept.angle_std
+            assert abs(result.distance - kept.distance) <= 1e-4
+            same += 1
+        # All measurements, the wild edges included.
+        batch = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E, loss="soft_l1")
+        pos, ang = axis_error(result, batch.point, batch.direction)
+        assert pos <= 2.0 * batch.position_std and ang <= 2.0 * batch.angle_std
+        close += pos <= 0.05 * batch.position_std and ang <= 0.05 * batch.angle_std
+        assert axis_error(result, p, u)[0] < 5e-3
+    assert close >= 6 and same >= 8
+
+
 # ----------------------------------------------------------------------------- bad input
 
 

@@ -182,6 +182,7 @@ class _Problem:
         self.length = max(spread, 1e-3)
         self.f_scale = f_scale
         self.n = x.shape[0]
+        self.solution = None  # (u, p, k, c) of a successful general-case fit
 
     @property
     def e(self) -> np.ndarray:
@@ -195,23 +196,43 @@ class _Problem:
 
 
 def _fit(x, e, w, sx, se, loss, f_scale, parallel_tol) -> AxisEstimate:
+    return _fit_state(x, e, w, sx, se, loss, f_scale, parallel_tol)[0]
+
+
+class _Solution:
+    """What a general-case fit ended with, for warm starts (the online estimator).
+
+    ``mask``: (N,) the measurements the fit used; ``edges``: (N, 3) the edges as oriented
+    for it; ``u``, ``p`` (world frame, ``p . u = 0``), ``k``, ``c``: the axis and invariants.
+    """
+
+    __slots__ = ("mask", "edges", "u", "p", "k", "c")
+
+    def __init__(self, mask, edges, u, p, k, c):
+        self.mask, self.edges, self.u, self.p, self.k, self.c = mask, edges, u, p, k, c
+
+
+def _fit_state(x, e, w, sx, se, loss, f_scale, parallel_tol):
+    """:func:`_fit` plus the :class:`_Solution` of a general-case fit (else None)."""
     n = x.shape[0]
     if n < 3:
-        return degenerate_estimate("3d", n, planar=False)
+        return degenerate_estimate("3d", n, planar=False), None
     prob = _Problem(x, e, w, sx, se, loss, f_scale)
     tol = parallel_tol if se is None else max(parallel_tol, 4.0 * float(np.median(se)))
     mean_dir, frac = _parallel_fraction(e, tol)
     need = 1.0 if loss == "linear" else 2.0 / 3.0
     if frac >= need:
-        return _fit_parallel(prob, mean_dir, tol)
+        return _fit_parallel(prob, mean_dir, tol), None
+    mask = np.ones(n, dtype=bool)
     if loss != "linear" and n >= 6:
         found = _consensus(prob)
         if found is not None and not found[0].all():
             inliers, signs = found
             e = e * signs[:, None]
-            est = _fit_subset(x, e, w, sx, se, loss, f_scale, inliers)
+            est, sub = _fit_subset(x, e, w, sx, se, loss, f_scale, inliers)
             if est.degenerate:
-                return est
+                return est, None
+            mask = inliers
             # Let back in what the minimal-set consensus rejected but the fit explains.
             u = est.direction
             pc = est.point - prob.centre
@@ -220,12 +241,24 @@ def _fit(x, e, w, sx, se, loss, f_scale, parallel_tol) -> AxisEstimate:
             prob.e = e
             again = _whitened_norms(prob, u, pc, k, c) < _CHI2_2DOF_99
             if (again != inliers).any() and again.sum() >= 4:
-                est = _fit_subset(x, e, w, sx, se, loss, f_scale, again)
-            return est
-    return _fit_general(prob)
+                est, sub = _fit_subset(x, e, w, sx, se, loss, f_scale, again)
+                mask = again
+            return est, _solution_of(sub, mask, e)
+    est = _fit_general(prob)
+    return est, _solution_of(prob, mask, prob.e)
 
 
-def _fit_subset(x, e, w, sx, se, loss, f_scale, mask) -> AxisEstimate:
+def _solution_of(prob, mask, e) -> _Solution | None:
+    if prob.solution is None:
+        return None
+    u, p, k, c = prob.solution
+    edges = e.copy()
+    edges[mask] = prob.e
+    q = p + prob.centre
+    return _Solution(mask, edges, u, q - (q @ u) * u, k, c)
+
+
+def _fit_subset(x, e, w, sx, se, loss, f_scale, mask):
     sub = _Problem(
         x[mask],
         e[mask],
@@ -235,7 +268,56 @@ def _fit_subset(x, e, w, sx, se, loss, f_scale, mask) -> AxisEstimate:
         loss,
         f_scale,
     )
-    return _fit_general(sub)
+    return _fit_general(sub), sub
+
+
+def _update_state(x, e, sx, se, loss, state: _Solution):
+    """Warm-started general-case refit after measurements were appended to those of state.
+
+    ``x``, ``e`` (edges oriented by continuity), ``sx``, ``se`` hold all N measurements,
+    the first ``len(state.mask)`` of them those of ``state``. Each new measurement takes
+    the edge sign that fits ``state`` better; the fit then starts from ``state`` on its
+    measurements plus the new ones and uses the same solver as :func:`fit_axis_3d`.
+    Returns (estimate, solution), or None when a full refit is called for: a robust loss
+    and a new measurement that is an outlier under ``state`` (the inlier set may be
+    changing), or a degenerate result.
+    """
+    n_old = state.mask.shape[0]
+    n = x.shape[0]
+    mask = np.concatenate([state.mask, np.ones(n - n_old, dtype=bool)])
+    edges = np.concatenate([state.edges, e[n_old:]])
+    prob = _Problem(x[mask], edges[mask], np.ones(int(mask.sum())), sx[mask], se[mask], loss, None)
+    u = state.u
+    p = state.p - prob.centre
+    p = p - (p @ u) * u
+    k, c = state.k, state.c
+    # The new rows are the last ones of prob.
+    m = n - n_old
+    xn, en = prob.x[-m:], prob.e[-m:]
+    d = np.einsum("ij,ij->i", xn - p, _cross(en, u[None, :]))
+    a = en @ u
+    length = prob.length
+    flip = (d + k) ** 2 + (length * (a + c)) ** 2 < (d - k) ** 2 + (length * (a - c)) ** 2
+    if flip.any():
+        sign = np.where(flip, -1.0, 1.0)
+        edges[n_old:] *= sign[:, None]
+        ep = prob.e.copy()
+        ep[-m:] *= sign[:, None]
+        prob.e = ep
+    wh = _whitening_general(prob, u, p)
+    if loss != "linear":
+        r1 = np.where(flip, -d, d) - k
+        r2 = np.where(flip, -a, a) - c
+        z1 = wh[-m:, 0] * r1
+        z2 = wh[-m:, 1] * r1 + wh[-m:, 2] * r2
+        if (z1 * z1 + z2 * z2 >= _CHI2_2DOF_99).any():
+            return None
+    u, p, k, c, wh = _refine_general(prob, u, p, k, c, wh)
+    est = _finish_general(prob, u, p, k, c, wh)
+    if est.degenerate:
+        return None
+    prob.solution = (u, p, k, c)
+    return est, _solution_of(prob, mask, edges)
 
 
 def _invariants(x, e, u, p) -> tuple[float, float]:
@@ -520,7 +602,8 @@ def _solve_general(prob, wh, u, p, k, c, f_scale):
     loss = prob.loss
     z, jm, b1, b2 = _linearise(prob, wh, u, p, k, c)
     cost = _loss_cost(z, loss, f_scale)
-    lam = 0.0
+    # Damping: Nielsen's rule, from 0 (pure Gauss-Newton, what a good start needs).
+    lam, nu = 0.0, 2.0
     ang_tol = 1e-11
     pos_tol = 1e-11 * prob.length
     for _ in range(_SOLVER_MAX_ITER):
@@ -531,13 +614,14 @@ def _solve_general(prob, wh, u, p, k, c, f_scale):
             rw, hw = _robust_weights(z, loss, f_scale, curvature=True)
             g = jm.T @ (rw * z)
             h = (jm * hw[:, None]).T @ jm
-        dh = np.diag(h) * lam
+        dh = np.diag(h).copy()
         s1, s2 = float(p @ b1), float(p @ b2)
         while True:
+            a = h + np.diag(lam * dh)
             try:
-                step = np.linalg.solve(h + np.diag(dh), -g)
+                step = np.linalg.solve(a, -g)
             except np.linalg.LinAlgError:
-                step = np.linalg.lstsq(h + np.diag(dh), -g, rcond=None)[0]
+                step = np.linalg.lstsq(a, -g, rcond=None)[0]
             sl = step.tolist()
             tiny = abs(sl[0]) + abs(sl[1]) < ang_tol and abs(sl[2]) + abs(sl[3]) < pos_tol
             v = u + sl[0] * b1 + sl[1] * b2
@@ -548,14 +632,17 @@ def _solve_general(prob, wh, u, p, k, c, f_scale):
             zn, _, _, _ = _linearise(prob, wh, un, pn, kn, cn, jacobian=False)
             new = _loss_cost(zn, loss, f_scale)
             if new <= cost:
+                pred = -float(step @ g) - 0.5 * float(step @ (h @ step))
+                ratio = (cost - new) / pred if pred > 0 else 1.0
+                lam *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
+                nu = 2.0
                 break
             if tiny:
                 return u, p, k, c
-            lam = max(10.0 * lam, 1e-6)
-            dh = np.diag(h) * lam
+            lam = max(lam * nu, 1e-6)
+            nu *= 2.0
             if lam > 1e10:
                 return u, p, k, c
-        lam = 0.1 * lam if lam > 1e-9 else 0.0
         done = tiny or cost - new <= 1e-10 * cost
         u, p, k, c, cost = un, pn, kn, cn, new
         if done:
@@ -578,7 +665,10 @@ def _fit_general(prob: _Problem) -> AxisEstimate:
     # have misled the continuity rule), then polish once.
     if _reorient(prob, u, p, k, c):
         u, p, k, c, wh = _refine_general(prob, u, p, k, c, wh)
-    return _finish_general(prob, u, p, k, c, wh)
+    est = _finish_general(prob, u, p, k, c, wh)
+    if not est.degenerate:
+        prob.solution = (u, p, k, c)
+    return est
 
 
 def _whitening_scale_only(prob: _Problem) -> np.ndarray:

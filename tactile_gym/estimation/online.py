@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from tactile_gym.estimation.axis import AxisEstimate
-from tactile_gym.estimation.fit3d import LOSSES, SIGN_LOOKBACK, _fit
+from tactile_gym.estimation.fit3d import LOSSES, SIGN_LOOKBACK, _fit_state, _update_state
 from tactile_gym.estimation.fits import _planar_fit, planar_residual_variance
 
 __all__ = ["JointAxisEstimator"]
@@ -29,6 +29,11 @@ MODES = ("planar", "3d")
 # Edge directions closer than this (or 3 edge stds) count as the same direction when
 # checking identifiability, rad.
 _DISTINCT_TOL = math.radians(0.5)
+
+# The 3d mode redoes the full robust fit (consensus included) once the number of
+# measurements has grown by this factor since the last full fit; in between it refits
+# warm-started from the previous solution.
+_FULL_REFIT_GROWTH = 1.25
 
 
 class JointAxisEstimator:
@@ -84,6 +89,8 @@ class JointAxisEstimator:
         self._cached: AxisEstimate | None = None
         self._stale = False
         self._last: AxisEstimate | None = None
+        self._state = None  # 3d mode: fit3d._Solution of the last fit, for warm starts
+        self._n_full = 0  # 3d mode: measurements at the last full (consensus) fit
 
     @property
     def n_measurements(self) -> int:
@@ -218,16 +225,26 @@ class JointAxisEstimator:
             return self._refit_planar()
         if len(self._dirs) == 2:
             return None
-        est = _fit(
-            self._points[:n].copy(),
-            self._edges[:n].copy(),
-            np.ones(n),
-            self._point_std[:n].copy(),
-            self._edge_std[:n].copy(),
-            self.loss,
-            None,
-            math.radians(1.0),
-        )
+        est = None
+        x = self._points[:n]
+        sx = self._point_std[:n]
+        se = self._edge_std[:n]
+        if self._state is not None and n < self._n_full * _FULL_REFIT_GROWTH:
+            out = _update_state(x, self._edges[:n], sx, se, self.loss, self._state)
+            if out is not None:
+                est, self._state = out
+        if est is None:
+            est, self._state = _fit_state(
+                x.copy(),
+                self._edges[:n].copy(),
+                np.ones(n),
+                sx.copy(),
+                se.copy(),
+                self.loss,
+                None,
+                math.radians(1.0),
+            )
+            self._n_full = n
         if est.degenerate:
             return None
         if len(self._dirs) < 3 and est.method != "3d-parallel":
