@@ -217,10 +217,22 @@ class HingeProbeEnv(gym.Env):
 
     ## Starting State
 
-    Drawn from ``self.np_random`` by ``tactile_gym.envs.scenarios.sample_scenario``: the
-    family, the link sizes and the hinge position, the initial joint angle, and the fingertip
-    start pose a few millimetres off the free link's probed edge; ``ScenarioConfig`` documents
-    the ranges. The sensor noise is drawn from the same generator each step.
+    Drawn from ``self.np_random`` by ``tactile_gym.envs.scenarios.sample_scenario`` (uniform
+    draws; ``scenario={...}`` changes the ranges, ``randomize=False`` gives the nominal start):
+
+    | quantity                  | range (default)                                           |
+    |---------------------------|-----------------------------------------------------------|
+    | family                    | one of ``families``                                       |
+    | free link length, width   | x 0.85-1.15 of the family's (scissors: 100 x 20 x 8 mm)   |
+    | hinge position            | +-10 mm horizontally (scissors: pin at (17, 105, 4) mm)   |
+    | layout yaw (not scissors) | -180..180 deg about world z; ``tilted`` axis 10-30 deg    |
+    | initial joint angle       | -20..20 deg, clipped to the joint limits                  |
+    | fingertip start           | 45-75 % along the link, 2-5 mm off the edge, finger axis  |
+    |                           | 10 +- 3 deg from the top face normal toward the edge side |
+    | joint holding torque      | 0.1 N m                                                   |
+
+    For ``HingeProbe-v0`` the free link points from its hinge toward world +x. The F/T noise
+    is drawn from the same generator every step.
 
     ## Episode End
 
