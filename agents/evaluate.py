@@ -91,6 +91,17 @@ class EpisodeRecord:
     terminated: bool
 
 
+def policy_label(name: str) -> str:
+    """A short name for tables and plots: the policy name, or "<algo> <model file stem>"."""
+    path = Path(name)
+    if not path.exists():
+        return name
+    run_dir = path.parent.parent if path.parent.name == "checkpoints" else path.parent
+    config_file = run_dir / "config.yml"
+    algo = yaml.safe_load(config_file.read_text())["algo"] if config_file.exists() else "model"
+    return f"{algo} {path.stem}"
+
+
 def make_policy(name: str, env: gym.Env, seed: int):
     """The policy called ``name``: ``random``, ``scripted`` or a model path."""
     if name == "random":
@@ -174,7 +185,7 @@ def plot_errors(records: dict[str, list[EpisodeRecord]], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, ax = plt.subplots(figsize=(7, 4))
     for name, recs in records.items():
         length = max(len(r.position_error) for r in recs)
         padded = (
@@ -193,7 +204,7 @@ def plot_errors(records: dict[str, list[EpisodeRecord]], path: Path) -> None:
     ax.set_ylabel("axis position error (mm)")
     ax.set_yscale("log")
     ax.axhline(REACH_THRESHOLD * 1e3, color="grey", linestyle=":", linewidth=1)
-    ax.legend()
+    ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -220,12 +231,15 @@ def evaluate(
         env = gym.make(env_id, **(env_kwargs or {}))
         try:
             policy = make_policy(name, env, seed)
-            records[name] = [run_episode(env, policy, seed + k) for k in range(episodes)]
+            records[policy_label(name)] = [
+                run_episode(env, policy, seed + k) for k in range(episodes)
+            ]
         finally:
             env.close()
     summaries = {name: summarize(recs) for name, recs in records.items()}
     result = {
         "env_id": env_id,
+        "policies": {policy_label(name): name for name in policies},
         "episodes": episodes,
         "seed": seed,
         "summaries": summaries,

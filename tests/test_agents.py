@@ -86,7 +86,7 @@ def test_training_smoke(tmp_path, algo):
     assert (run_dir / "vecnormalize.pkl").exists()
     model = str(run_dir / "final_model.zip")
     summaries = evaluate.evaluate([model], episodes=1, out=tmp_path / "eval", plot=False)
-    assert summaries[model]["episodes"] == 1
+    assert summaries[f"{algo} final_model"]["episodes"] == 1
 
 
 def test_hyperparameters_resolve_per_env():
