@@ -52,18 +52,13 @@ class ModelPolicy:
         from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
         path = Path(path)
-        in_checkpoints = path.parent.name == "checkpoints"
-        run_dir = path.parent.parent if in_checkpoints else path.parent
-        algo = "ppo"
-        config_file = run_dir / "config.yml"
-        if config_file.exists():
-            algo = yaml.safe_load(config_file.read_text())["algo"]
+        run_dir, algo = model_run(path)
         self.model = {"ppo": PPO, "sac": SAC}[algo].load(path, device="cpu")
         self.normalizer = None
         # A checkpoint has its own normalisation statistics (CheckpointCallback names them
         # rl_model_vecnormalize_<steps>_steps.pkl); other models use the run's final ones.
         stats = run_dir / "vecnormalize.pkl"
-        if in_checkpoints:
+        if path.parent.name == "checkpoints":
             name = path.stem.replace("rl_model_", "rl_model_vecnormalize_")
             stats = path.with_name(name + ".pkl")
         if stats.exists():
@@ -91,15 +86,21 @@ class EpisodeRecord:
     terminated: bool
 
 
+def model_run(path: Path) -> tuple[Path, str]:
+    """The run folder of a model saved by ``agents.train`` (final, best or checkpoint) and
+    its algorithm (from the run's ``config.yml``; ``"ppo"`` when there is none)."""
+    run_dir = path.parent.parent if path.parent.name == "checkpoints" else path.parent
+    config_file = run_dir / "config.yml"
+    algo = yaml.safe_load(config_file.read_text())["algo"] if config_file.exists() else "ppo"
+    return run_dir, algo
+
+
 def policy_label(name: str) -> str:
     """A short name for tables and plots: the policy name, or "<algo> <model file stem>"."""
     path = Path(name)
     if not path.exists():
         return name
-    run_dir = path.parent.parent if path.parent.name == "checkpoints" else path.parent
-    config_file = run_dir / "config.yml"
-    algo = yaml.safe_load(config_file.read_text())["algo"] if config_file.exists() else "model"
-    return f"{algo} {path.stem}"
+    return f"{model_run(path)[1]} {path.stem}"
 
 
 def make_policy(name: str, env: gym.Env, seed: int):

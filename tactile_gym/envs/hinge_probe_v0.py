@@ -363,8 +363,6 @@ class HingeProbeEnv(gym.Env):
         step_info = scene.control_step(*target)
         wrench = scene.read_wrench(self.np_random)
         obs, accepted = self._observe(wrench)
-        if accepted:
-            self._estimate = self.estimator.estimate()
         position_error, angle_error = self._errors()
         reward, reward_info = self.task.get_reward(
             position_error, angle_error, step_info.max_force, action
@@ -434,7 +432,8 @@ class HingeProbeEnv(gym.Env):
         }
 
     def _observe(self, wrench: np.ndarray) -> tuple[Any, list[Measurement]]:
-        """Sense the contact, feed the gate and estimator, and build the observation."""
+        """Sense the contact, feed the gate and estimator (updating ``_estimate``), and build
+        the observation."""
         scene = self._scene
         contact = estimate_contact(
             wrench[:3],
@@ -470,8 +469,10 @@ class HingeProbeEnv(gym.Env):
             self.gate.offer(False, np.zeros(3), np.zeros(3), np.full(3, np.nan), np.inf)
             contact_obs[10] = np.pi
 
+        if accepted:
+            self._estimate = self.estimator.estimate()
         estimate_obs = np.zeros(10)
-        estimate = self.estimator.estimate() if accepted else self._estimate
+        estimate = self._estimate
         if estimate is not None and not estimate.degenerate:
             estimate_obs[0] = 1.0
             estimate_obs[1:4] = estimate.point

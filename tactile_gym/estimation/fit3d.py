@@ -222,7 +222,7 @@ def _fit_state(x, e, w, sx, se, loss, f_scale, parallel_tol):
     mean_dir, frac = _parallel_fraction(e, tol)
     need = 1.0 if loss == "linear" else 2.0 / 3.0
     if frac >= need:
-        return _fit_parallel(prob, mean_dir, tol), None
+        return _fit_parallel(prob, mean_dir), None
     mask = np.ones(n, dtype=bool)
     if loss != "linear" and n >= 6:
         found = _consensus(prob)
@@ -771,16 +771,24 @@ def _finish_general(prob, u, p, k, c, wh) -> AxisEstimate:
     rms = float(np.sqrt(np.mean(r1 * r1))) / sin_t
     # Jacobian of (point, direction, distance) w.r.t. (alpha, beta, s1, s2, k, c).
     q = p + prob.centre
-    g = np.zeros((7, 6))
+    g = _axis_jacobian(q, u, b1, b2, 6)
+    g[6, 4] = math.copysign(1.0, k) / sin_t
+    g[6, 5] = abs(k) * c / sin_t**3
+    return _assemble(prob, u, q, d, cov_local, g, cond, rms, "3d")
+
+
+def _axis_jacobian(q, u, b1, b2, n_params: int) -> np.ndarray:
+    """Jacobian of (point, direction, distance) w.r.t. the local parameters, whose first four
+    are the direction angles (alpha, beta) and the point offsets (s1, s2); the distance row
+    is left for the caller."""
+    g = np.zeros((7, n_params))
     g[0:3, 0] = -(q @ b1) * u - (q @ u) * b1
     g[0:3, 1] = -(q @ b2) * u - (q @ u) * b2
     g[0:3, 2] = b1
     g[0:3, 3] = b2
     g[3:6, 0] = b1
     g[3:6, 1] = b2
-    g[6, 4] = math.copysign(1.0, k) / sin_t
-    g[6, 5] = abs(k) * c / sin_t**3
-    return _assemble(prob, u, q, d, cov_local, g, cond, rms, "3d")
+    return g
 
 
 def _assemble(prob, u, q, d, cov_local, g, cond, rms, method) -> AxisEstimate:
@@ -868,7 +876,7 @@ def _residuals_parallel(prob, wh, u0, b1, b2):
     return fun, jac
 
 
-def _fit_parallel(prob: _Problem, mean_dir: np.ndarray, tol: float) -> AxisEstimate:
+def _fit_parallel(prob: _Problem, mean_dir: np.ndarray) -> AxisEstimate:
     e = prob.e
     prob.e = np.where((e @ mean_dir < 0)[:, None], -e, e)
     u = mean_dir
@@ -927,13 +935,6 @@ def _fit_parallel(prob: _Problem, mean_dir: np.ndarray, tol: float) -> AxisEstim
     rad = np.sqrt(np.einsum("ij,ij->i", wp, wp)) - d
     rms = float(np.sqrt(np.mean(rad * rad)))
     q = p + prob.centre
-    g = np.zeros((7, 5))
-    g[0:3, 0] = -(q @ b1) * u - (q @ u) * b1
-    g[0:3, 1] = -(q @ b2) * u - (q @ u) * b2
-    g[0:3, 2] = b1
-    g[0:3, 3] = b2
-    g[3:6, 0] = b1
-    g[3:6, 1] = b2
+    g = _axis_jacobian(q, u, b1, b2, 5)
     g[6, 4] = 1.0
-    del tol
     return _assemble(prob, u, q, d, cov_local, g, cond, rms, "3d-parallel")
