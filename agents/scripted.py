@@ -42,9 +42,9 @@ import argparse
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from tactile_gym.sensing import edge_from_trace
+from tactile_gym.spatial import quaternion_to_matrix, rotvec_to_matrix
 
 __all__ = ["ScriptedConfig", "ScriptedProbePolicy"]
 
@@ -152,7 +152,7 @@ class ScriptedProbePolicy:
         """The normalised action for a dict observation of ``HingeProbeEnv``."""
         cfg = self.config
         pose = np.asarray(obs["fingertip_pose"], dtype=float)
-        rotation = Rotation.from_quat(pose[3:7]).as_matrix()
+        rotation = quaternion_to_matrix(pose[3:7])
         axis = rotation[:, 2]
         tip = pose[:3] + rotation @ self.tip_center
         force = float(np.linalg.norm(obs["wrench"][:3]))
@@ -287,7 +287,7 @@ class ScriptedProbePolicy:
             return h
         # Pushing along h at a point on the link turns it so that the point moves along h.
         sign = np.sign(np.cross(self._edges[-1], h) @ Z) or 1.0
-        return Rotation.from_rotvec(Z * sign * pushed / self._lever()).apply(h)
+        return rotvec_to_matrix(Z * sign * pushed / self._lever()) @ h
 
 
 def _signed_angle(a: np.ndarray, b: np.ndarray) -> float:

@@ -154,8 +154,7 @@ def test_controller_scales_translation_and_rotates_about_the_tip():
     tip_after = new_position + Rotation.from_quat(new_orientation).apply(pivot)
     np.testing.assert_allclose(tip_after, tip_before, atol=1e-12)
     turn = Rotation.from_quat(new_orientation) * Rotation.from_quat(orientation).inv()
-    # pybullet's quaternion maths works in single precision.
-    np.testing.assert_allclose(turn.as_rotvec(), [0, np.deg2rad(3.0), 0], atol=1e-7)
+    np.testing.assert_allclose(turn.as_rotvec(), [0, np.deg2rad(3.0), 0], atol=1e-12)
 
 
 # --------------------------------------------------------------------------- scenarios

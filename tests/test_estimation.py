@@ -117,11 +117,11 @@ def test_planar_numpy_and_loop_paths_agree() -> None:
 
     pts, eds = make_planar(np.random.default_rng(1), n=20)
     w = np.random.default_rng(2).uniform(0.5, 2.0, 20)
-    fast = fits._planar_fit(pts, eds, w, True)
+    fast = fits._planar_fit(pts, eds, w)
     saved = fits._PLANAR_NUMPY_MIN_N
     try:
         fits._PLANAR_NUMPY_MIN_N = 10_000
-        loop = fits._planar_fit(pts, eds, w, True)
+        loop = fits._planar_fit(pts, eds, w)
     finally:
         fits._PLANAR_NUMPY_MIN_N = saved
     np.testing.assert_allclose(fast.point, loop.point, atol=1e-12)

@@ -8,7 +8,7 @@ import pytest
 
 from tactile_gym.sensing import estimate_contact
 from tactile_gym.sim import ObjectConfig, ProbeScene
-from tactile_gym.sim.objects import matrix_to_quaternion
+from tactile_gym.spatial import matrix_to_quaternion
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])
 

@@ -79,7 +79,7 @@ def test_wrench_is_sum_of_node_forces_and_matches_reaction(scene):
     quat_axis = -n
     x = np.array([1.0, 0.0, 0.0])
     y = np.cross(quat_axis, x)
-    from tactile_gym.sim.objects import matrix_to_quaternion
+    from tactile_gym.spatial import matrix_to_quaternion
 
     q = matrix_to_quaternion(np.column_stack([x, y, quat_axis]))
     scene.reset(0.0, c - g.cylinder_length * quat_axis, q)

@@ -9,7 +9,8 @@ rocks the tip in place rather than swinging it round the sensor.
 from __future__ import annotations
 
 import numpy as np
-import pybullet as p
+
+from tactile_gym.spatial import matrix_to_quaternion, quaternion_to_matrix, rotvec_to_matrix
 
 __all__ = ["DeltaPoseController"]
 
@@ -33,15 +34,8 @@ class DeltaPoseController:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Pose target after applying ``action`` to the pose (position, xyzw quaternion)."""
         translation = np.asarray(action[:3], dtype=float) * self.max_translation
-        rotvec = np.asarray(action[3:6], dtype=float) * self.max_rotation
-        angle = float(np.linalg.norm(rotvec))
-        if angle > 0.0:
-            delta = p.getQuaternionFromAxisAngle((rotvec / angle).tolist(), angle)
-        else:
-            delta = (0.0, 0.0, 0.0, 1.0)
-        rotation = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+        turn = rotvec_to_matrix(np.asarray(action[3:6], dtype=float) * self.max_rotation)
+        rotation = quaternion_to_matrix(orientation)
         pivot_world = position + rotation @ self.pivot
-        delta_matrix = np.array(p.getMatrixFromQuaternion(delta)).reshape(3, 3)
-        new_position = pivot_world + delta_matrix @ (position - pivot_world) + translation
-        _, new_orientation = p.multiplyTransforms((0, 0, 0), delta, (0, 0, 0), orientation)
-        return new_position, np.asarray(new_orientation, dtype=float)
+        new_position = pivot_world + turn @ (position - pivot_world) + translation
+        return new_position, matrix_to_quaternion(turn @ rotation)

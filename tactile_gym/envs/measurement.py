@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.sensing import edge_from_trace
+from tactile_gym.spatial import orient_like
 
 __all__ = ["GateConfig", "Measurement", "MeasurementGate"]
 
@@ -203,9 +204,7 @@ class MeasurementGate:
         return self._accept(points.mean(axis=0), direction, std, "trace")
 
     def _accept(self, point: np.ndarray, edge: np.ndarray, edge_std: float, source: str):
-        edge = np.asarray(edge, dtype=float)
-        if self._last_edge is not None and float(np.dot(edge, self._last_edge)) < 0:
-            edge = -edge
+        edge = orient_like(edge, [] if self._last_edge is None else [self._last_edge])
         self._last_point = np.array(point, dtype=float)
         self._last_edge = edge
         return Measurement(

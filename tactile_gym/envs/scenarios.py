@@ -20,6 +20,7 @@ import numpy as np
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.sim import ObjectConfig
 from tactile_gym.sim.config import FAMILIES
+from tactile_gym.spatial import matrix_to_quaternion, z_to
 
 __all__ = [
     "FAMILIES",
@@ -119,15 +120,7 @@ def probed_edge(config: ObjectConfig, joint_angle: float) -> tuple[np.ndarray, .
 
 def quaternion_z_to(direction: np.ndarray) -> np.ndarray:
     """The xyzw quaternion that turns +z onto ``direction`` (a unit vector)."""
-    z = np.array([0.0, 0.0, 1.0])
-    axis = np.cross(z, direction)
-    sin_angle = np.linalg.norm(axis)
-    angle = np.arctan2(sin_angle, float(direction @ z))
-    if sin_angle < 1e-12:
-        axis = np.array([1.0, 0.0, 0.0])
-    else:
-        axis = axis / sin_angle
-    return np.r_[axis * np.sin(angle / 2), np.cos(angle / 2)]
+    return matrix_to_quaternion(z_to(direction))
 
 
 def _sample_object(family: str, rng: np.random.Generator, cfg: ScenarioConfig) -> ObjectConfig:

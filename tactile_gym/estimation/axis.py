@@ -8,9 +8,9 @@ Conventions (DESIGN.md section 4):
   largest-magnitude component is positive (for a vertical axis that is +z, for an axis along
   x it is +x). Ties (axes on a diagonal) go to the earlier component, x before y before z.
 * Edge directions are unoriented lines on the object, but the fits need a consistent
-  orientation: consecutive measurements are oriented so that they point the same way
-  (``e_i . e_{i-1} > 0``), which requires the link to turn by less than 90 degrees between
-  measurements.
+  orientation: each is signed like the best-aligned of the few before it
+  (:func:`tactile_gym.spatial.orient_edges`), which requires the link to turn by less than
+  90 degrees between measurements.
 """
 
 from __future__ import annotations
@@ -191,28 +191,3 @@ def as_weights(weights: object, n: int) -> np.ndarray:
     if not np.isfinite(w).all() or (w < 0).any():
         raise ValueError(f"weights must be finite and >= 0, got {w.tolist()}")
     return w
-
-
-def resolve_signs_consecutive(e: np.ndarray) -> np.ndarray:
-    """Flip rows of ``e`` so that each points the same way as the previous one (vectorised)."""
-    if e.shape[0] < 2:
-        return e
-    dots = np.einsum("ij,ij->i", e[1:], e[:-1])
-    s = np.where(dots < 0.0, -1.0, 1.0)
-    flips = np.empty(e.shape[0])
-    flips[0] = 1.0
-    np.cumprod(s, out=flips[1:])
-    return e * flips[:, None]
-
-
-def resolve_sign_against(e: np.ndarray, previous: np.ndarray) -> np.ndarray:
-    """Orient edge ``e`` like the previous edge it is most nearly parallel to.
-
-    Comparing with the best-aligned of the last few edges (instead of only the last one)
-    keeps one wild edge from flipping every edge after it.
-    """
-    if previous.shape[0] == 0:
-        return e
-    dots = previous @ e
-    j = int(np.argmax(np.abs(dots)))
-    return -e if dots[j] < 0.0 else e

@@ -57,14 +57,12 @@ from tactile_gym.estimation.axis import (
     degenerate_estimate,
     stds_from_covariance,
 )
+from tactile_gym.spatial import orient_edges
 
 __all__ = ["fit_axis_3d", "LOSSES"]
 
 LOSSES = ("linear", "soft_l1", "huber", "cauchy")
 """Loss functions accepted by :func:`fit_axis_3d` (those of scipy's least_squares)."""
-
-# How many previous edges the orientation of a new edge is compared with.
-SIGN_LOOKBACK = 3
 
 _DEFAULT_PARALLEL_TOL = math.radians(1.0)
 _VAR_FLOOR = 1e-24
@@ -143,25 +141,6 @@ def fit_axis_3d(
     if resolve_signs:
         e = orient_edges(e)
     return _fit(x, e, w, sx, se, loss, f_scale, parallel_tol)
-
-
-def orient_edges(e: np.ndarray) -> np.ndarray:
-    """Orient unit edges (N, 3) consistently, each like its best-aligned recent predecessor."""
-    # Plain Python: the per-row numpy calls of resolve_sign_against cost more than the math.
-    rows = e.tolist()
-    flips = []
-    for i, ei in enumerate(rows):
-        best = 0.0
-        for pj in rows[max(0, i - SIGN_LOOKBACK) : i]:
-            dot = ei[0] * pj[0] + ei[1] * pj[1] + ei[2] * pj[2]
-            if abs(dot) > abs(best):
-                best = dot
-        if best < 0.0:
-            rows[i] = [-ei[0], -ei[1], -ei[2]]
-            flips.append(i)
-    out = e.copy()
-    out[flips] *= -1.0
-    return out
 
 
 # ------------------------------------------------------------------------------ the solver

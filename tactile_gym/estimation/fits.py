@@ -9,10 +9,10 @@ Conventions:
   components are ignored and 3-vector edges are projected onto the x-y plane and normalised.
 * The returned :class:`~tactile_gym.estimation.axis.AxisEstimate` has
   ``direction = (0, 0, 1)`` and ``point = (p, q, 0)``.
-* Edge orientation: by default each edge is flipped to point the same way as the previous one
-  (``e_i . e_{i-1} > 0``) before the fit; the constant-distance model (paper eq. 16) holds
-  only for consistently oriented edges. Successive measurements must therefore be less than
-  90 degrees of link rotation apart.
+* Edge orientation: by default the x-y parts of the edges are signed consistently before the
+  fit, each like the best-aligned of the few before it (:func:`tactile_gym.spatial.orient_edges`);
+  the constant-distance model (paper eq. 16) holds only for consistently oriented edges.
+  Successive measurements must therefore be less than 90 degrees of link rotation apart.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from tactile_gym.estimation.axis import (
     as_weights,
     degenerate_estimate,
 )
+from tactile_gym.spatial import orient_edges
 
 __all__ = ["fit_axis_planar", "fit_axis_simple", "planar_residual_variance"]
 
@@ -101,7 +102,7 @@ def fit_axis_planar(
             (N,)). Needs ``edge_std`` too. The residual variances are then predicted by
             :func:`planar_residual_variance` from an unweighted fit and refined twice.
         edge_std: edge-direction std, rad (scalar or (N,)); with ``point_std``.
-        resolve_signs: orient consecutive edges consistently (see the module docstring).
+        resolve_signs: orient the edges consistently (see the module docstring).
             Pass False when the edges are already oriented.
 
     Returns:
@@ -125,14 +126,18 @@ def fit_axis_planar(
     if weights is not None and point_std is not None:
         raise ValueError("give either weights or point_std/edge_std, not both")
     w = None if weights is None else as_weights(weights, n)
+    if resolve_signs and np.isfinite(e3).all():
+        # Signs from the x-y parts (those the fit uses), applied to the whole edges.
+        xy = np.column_stack([e3[:, :2], np.zeros(n)])
+        e3 = np.where((np.einsum("ij,ij->i", orient_edges(xy), xy) < 0)[:, None], -e3, e3)
     if point_std is None:
-        est = _planar_fit(x, e3, w, resolve_signs)
+        est = _planar_fit(x, e3, w)
         if est is None:
             _raise_bad_planar_input(x, e3)
         return est
     sx = as_stds(point_std, n, "point_std", "m")
     se = as_stds(edge_std, n, "edge_std", "rad")
-    est = _planar_fit(x, e3, None, resolve_signs)
+    est = _planar_fit(x, e3, None)
     if est is None:
         _raise_bad_planar_input(x, e3)
     # Predict the residual variances from the current axis and refit; twice is enough for
@@ -142,7 +147,7 @@ def fit_axis_planar(
         if est.degenerate:
             return est
         var = planar_residual_variance(x[:, :2], e2, est.point[:2], sx, se)
-        est = _planar_fit(x, e3, 1.0 / var, resolve_signs)
+        est = _planar_fit(x, e3, 1.0 / var)
     return est
 
 
@@ -171,9 +176,7 @@ _NO_XY = 1e-9
 _PLANAR_NUMPY_MIN_N = 12
 
 
-def _planar_fit(
-    x: np.ndarray, e3: np.ndarray, w: np.ndarray | None, resolve_signs: bool
-) -> AxisEstimate | None:
+def _planar_fit(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> AxisEstimate | None:
     """Eq. 18-21 on shape-checked arrays; None when an input is non-finite or an edge zero.
 
     w holds inverse variances (rows with w = 0 are dropped). The normal equations
@@ -183,7 +186,7 @@ def _planar_fit(
     """
     n = x.shape[0]
     if n >= _PLANAR_NUMPY_MIN_N and (w is None or w.all()):
-        est = _planar_fit_numpy(x, e3, w, resolve_signs)
+        est = _planar_fit_numpy(x, e3, w)
         if est is not None:
             return est
     xl = x.tolist()
@@ -192,8 +195,6 @@ def _planar_fit(
     three = e3.shape[1] == 3
     rows = []
     a00 = a01 = a02 = a11 = a12 = a22 = r0 = r1 = r2 = 0.0
-    pex = pey = 0.0
-    flip = 1.0
     for i in range(n):
         ei = el[i]
         ex = ei[0]
@@ -207,12 +208,7 @@ def _planar_fit(
         wi = 1.0 if wl is None else wl[i]
         if wi == 0.0:
             continue
-        if resolve_signs:
-            if ex * pex + ey * pey < 0.0:
-                flip = -flip
-            pex = ex
-            pey = ey
-        k = flip / math.sqrt(nxy2)
+        k = 1.0 / math.sqrt(nxy2)
         ex *= k
         ey *= k
         xi = xl[i]
@@ -242,9 +238,7 @@ def _planar_fit(
     return _planar_solve((a00, a01, a02, a11, a12, a22), (r0, r1, r2), len(rows), w, rss)
 
 
-def _planar_fit_numpy(
-    x: np.ndarray, e3: np.ndarray, w: np.ndarray | None, resolve_signs: bool
-) -> AxisEstimate | None:
+def _planar_fit_numpy(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> AxisEstimate | None:
     """Vectorised twin of the loop in :func:`_planar_fit` for many rows with usable edges.
 
     Returns None (the caller falls back to the loop) when an edge has no x-y part or an
@@ -261,10 +255,6 @@ def _planar_fit_numpy(
     if not usable:
         return None
     s = 1.0 / np.sqrt(nxy2)
-    if resolve_signs:
-        # Edge i is flipped when an odd number of consecutive pairs up to i point apart.
-        odd = np.logical_xor.accumulate(ex[1:] * ex[:-1] + ey[1:] * ey[:-1] < 0.0)
-        s[1:][odd] *= -1.0
     # Rows of m: the columns of A = (e_y, -e_x, -1), then b.
     m = np.empty((4, n))
     np.multiply(ey, s, out=m[0])

@@ -2,7 +2,7 @@
 
 Conventions: world frame, metres, radians. Points are contact points on the link's edge,
 edges its direction there (any sign; each new edge is oriented like the best-aligned of
-the previous few, see :func:`tactile_gym.estimation.fit3d.orient_edges`), ``point_std`` the
+the previous few, see :func:`tactile_gym.spatial.orient_edges`), ``point_std`` the
 contact-point std per axis (m) and ``edge_std`` the edge-direction std (rad).
 
 Weighting (DESIGN.md 2.5: the fit is badly conditioned over small rotations). Each
@@ -19,8 +19,9 @@ import math
 import numpy as np
 
 from tactile_gym.estimation.axis import AxisEstimate
-from tactile_gym.estimation.fit3d import LOSSES, SIGN_LOOKBACK, _fit_state, _update_state
+from tactile_gym.estimation.fit3d import LOSSES, _fit_state, _update_state
 from tactile_gym.estimation.fits import _planar_fit, planar_residual_variance
+from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
 
 __all__ = ["JointAxisEstimator"]
 
@@ -171,17 +172,9 @@ class JointAxisEstimator:
         n = self._n
         if n == self._points.shape[0]:
             self._grow()
-        # Orient like the best-aligned of the last few edges.
-        best = 0.0
-        for j in range(max(0, n - SIGN_LOOKBACK), n):
-            pe = self._edges[j]
-            dot = el[0] * pe[0] + el[1] * pe[1] + el[2] * pe[2]
-            if abs(dot) > abs(best):
-                best = dot
-        if best < 0.0:
-            el = [-v for v in el]
         self._points[n] = xl
-        self._edges[n] = el
+        # The first edge keeps its sign; later ones follow the best-aligned of the last few.
+        self._edges[n] = orient_like(el, self._edges[max(0, n - SIGN_LOOKBACK) : n]) if n else el
         self._point_std[n] = sx
         self._edge_std[n] = se
         self._n = n + 1
@@ -260,13 +253,13 @@ class JointAxisEstimator:
         prev = self._last
         passes = 1
         if prev is None or prev.degenerate:
-            prev = _planar_fit(x, e, None, resolve_signs=False)
+            prev = _planar_fit(x, e, None)
             passes = 2
         for _ in range(passes):
             if prev is None or prev.degenerate:
                 return None
             var = planar_residual_variance(x[:, :2], e[:, :2], prev.point[:2], sx, se)
-            prev = _planar_fit(x, e, 1.0 / var, resolve_signs=False)
+            prev = _planar_fit(x, e, 1.0 / var)
         if prev is None or prev.degenerate:
             return None
         return prev

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.sensing.geometry import FingertipGeometry
+from tactile_gym.spatial import orient_like
 
 __all__ = [
     "CONTACT_SHAPES",
@@ -561,12 +562,7 @@ def estimate_contact(
         std = _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m)
         if std < EDGE_STD_UNOBSERVABLE:
             edge_std = std
-            if prev is not None and _dot(e, prev) != 0.0:
-                flip = _dot(e, prev) < 0.0
-            else:
-                ax = (abs(e[0]), abs(e[1]), abs(e[2]))
-                flip = e[ax.index(max(ax))] < 0.0
-            edge = (-e[0], -e[1], -e[2]) if flip else e
+            edge = tuple(orient_like(e, [] if prev is None else [prev]).tolist())
 
     corrected = _NAN3
     delta = math.nan

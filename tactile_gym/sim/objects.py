@@ -23,49 +23,13 @@ import pybullet as p
 from tactile_gym.sim.config import ObjectConfig
 from tactile_gym.sim.primitives import RoundedBox
 from tactile_gym.sim.world import World
+from tactile_gym.spatial import matrix_to_quaternion, rotation_z
 
-__all__ = ["HingedObject", "matrix_to_quaternion", "quaternion_to_matrix"]
+__all__ = ["HingedObject"]
 
 FREE_BODY = 0
 FIXED_BODY = 1
 TABLE_BODY = 2
-
-
-def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
-    """3x3 rotation of a unit quaternion (x, y, z, w)."""
-    x, y, z, w = np.asarray(q, dtype=float) / np.linalg.norm(q)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-def matrix_to_quaternion(r: np.ndarray) -> np.ndarray:
-    """Unit quaternion (x, y, z, w) of a 3x3 rotation, with w >= 0."""
-    m = np.asarray(r, dtype=float)
-    t = np.trace(m)
-    if t > 0:
-        s = 2.0 * np.sqrt(t + 1.0)
-        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, s / 4]
-    else:
-        i = int(np.argmax(np.diag(m)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * np.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
-        q = [0.0, 0.0, 0.0, (m[k, j] - m[j, k]) / s]
-        q[i] = s / 4
-        q[j] = (m[j, i] + m[i, j]) / s
-        q[k] = (m[k, i] + m[i, k]) / s
-    q = np.asarray(q)
-    q = q / np.linalg.norm(q)
-    return -q if q[3] < 0 else q
-
-
-def _rot_z(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 class HingedObject:
@@ -199,7 +163,7 @@ class HingedObject:
     @property
     def link_rotation(self) -> np.ndarray:
         """Free-link frame axes as columns, world frame."""
-        return self.hinge_rotation @ _rot_z(self._angle)
+        return self.hinge_rotation @ rotation_z(self._angle)
 
     @property
     def free_link_com(self) -> np.ndarray:

@@ -29,15 +29,16 @@ import pybullet as p
 
 from tactile_gym.sensing.geometry import FingertipGeometry
 from tactile_gym.sim.config import ObjectConfig, SensorConfig, SkinConfig
-from tactile_gym.sim.objects import (
-    FREE_BODY,
-    HingedObject,
-    matrix_to_quaternion,
-    quaternion_to_matrix,
-)
+from tactile_gym.sim.objects import FREE_BODY, HingedObject
 from tactile_gym.sim.primitives import Plane
 from tactile_gym.sim.skin import Contact, SoftSkin
 from tactile_gym.sim.world import World
+from tactile_gym.spatial import (
+    matrix_to_quaternion,
+    matrix_to_rotvec,
+    quaternion_to_matrix,
+    rotvec_to_matrix,
+)
 
 __all__ = ["ProbeScene", "StepInfo"]
 
@@ -60,23 +61,6 @@ class StepInfo:
     max_penetration: float
     n_active_nodes: int
     max_force: float
-
-
-def _rotvec_to_matrix(v: np.ndarray) -> np.ndarray:
-    angle = float(np.linalg.norm(v))
-    if angle < 1e-12:
-        return np.eye(3)
-    k = v / angle
-    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(angle) * kx + (1 - np.cos(angle)) * (kx @ kx)
-
-
-def _matrix_to_rotvec(r: np.ndarray) -> np.ndarray:
-    q = matrix_to_quaternion(r)
-    s = np.linalg.norm(q[:3])
-    if s < 1e-12:
-        return np.zeros(3)
-    return q[:3] / s * 2.0 * np.arctan2(s, q[3])
 
 
 def _unit_quaternion(q) -> np.ndarray:
@@ -233,13 +217,13 @@ class ProbeScene:
         if dist > self.max_speed * horizon:
             dp *= self.max_speed * horizon / dist
             dist = self.max_speed * horizon
-        rv = _matrix_to_rotvec(r_target @ self._rot.T)
+        rv = matrix_to_rotvec(r_target @ self._rot.T)
         ang = float(np.linalg.norm(rv))
         if ang > self.max_angular_speed * horizon:
             rv *= self.max_angular_speed * horizon / ang
             ang = self.max_angular_speed * horizon
         step_p = dp / n
-        step_r = _rotvec_to_matrix(rv / n)
+        step_r = rotvec_to_matrix(rv / n)
         moving_rot = ang > 0.0
 
         obj = self._object
