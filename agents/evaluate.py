@@ -22,7 +22,8 @@ import numpy as np
 import yaml
 
 import tactile_gym
-from agents.scripted import ScriptedProbePolicy
+
+from .scripted import ScriptedProbePolicy
 
 #: Position error reported while there is no estimate, m (the task's E_max).
 NO_ESTIMATE_ERROR = 0.1

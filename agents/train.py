@@ -23,7 +23,8 @@ from pathlib import Path
 
 import yaml
 
-CONFIG_DIR = Path(__file__).resolve().parents[1] / "configs"
+from tactile_gym.presets import load_yaml, preset_path
+
 ALGOS = ("ppo", "sac")
 #: Keys of a training config that are not constructor arguments of the algorithm.
 RUN_KEYS = ("policy", "n_timesteps", "n_envs", "normalize", "env_kwargs")
@@ -42,9 +43,8 @@ def load_hyperparameters(algo: str, env_id: str, config_path: Path | None = None
     """The ``default`` entry of the algo's YAML, updated by the env's entry."""
     if algo not in ALGOS:
         raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
-    path = config_path or CONFIG_DIR / "train" / f"{algo}.yml"
-    with open(path) as f:
-        table = yaml.safe_load(f)
+    path = preset_path("train", config_path or algo)
+    table = load_yaml(path)
     if "default" not in table:
         raise ValueError(f"{path} has no 'default' entry")
     config = copy.deepcopy(table["default"])

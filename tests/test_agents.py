@@ -12,6 +12,7 @@ import yaml
 import tactile_gym  # noqa: F401 - registers the envs
 from agents import evaluate, reproduce_paper, train
 from agents.scripted import ScriptedProbePolicy
+from tactile_gym.presets import preset_path
 
 
 def _run_scripted(seed: int) -> dict:
@@ -130,7 +131,7 @@ def test_env_presets_match_registered_defaults():
         ("hinge_probe", tactile_gym.ENV_IDS[0]),
         ("hinge_probe_3d", tactile_gym.ENV_IDS[1]),
     ):
-        with open(f"{train.CONFIG_DIR}/env/{name}.yml") as f:
+        with open(preset_path("env", name)) as f:
             preset = yaml.safe_load(f)
         config = HingeProbeConfig(**preset)
         registered = HingeProbeConfig(**gym.spec(env_id).kwargs)
