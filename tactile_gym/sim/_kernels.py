@@ -24,6 +24,8 @@ Layouts (P primitives, M candidate nodes):
 * ``prim_info`` (P, 2) int64: index of the primitive in the scene's list, kind (``BOX`` or
   ``PLANE``).
 * ``frames`` (P, 4, 3): (A, b) with x_primitive = A x_sensor + b, as the 3 rows of A, then b.
+  ``prev_frames`` (P_all, 4, 3): the same for every primitive of the scene (indexed by
+  ``prim_info[:, 0]``) at the last committed pose: where a node came from.
 * ``node_data`` (M, NODE_COLS): per node in contact, in its primitive's frame, columns
   ``LOCAL``, ``NORMAL``, ``ANCHOR``, ``FORCE``, ``POINT`` (3 each), then ``DELTA``,
   ``PRESSURE``; ``node_ids`` (M, 2) int64: node index, primitive index.
@@ -108,12 +110,54 @@ def _normal(shapes, kind, j, x0, x1, x2):
     outer = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
     if outer > 1e-12:
         n0, n1, n2 = p0 / outer, p1 / outer, p2 / outer
+    elif q0 >= q1 and q0 >= q2:
+        n0, n1, n2 = 1.0, 0.0, 0.0
+    elif q1 >= q2:
+        n0, n1, n2 = 0.0, 1.0, 0.0
     else:
-        qmax = max(max(q0, q1), q2)
-        n0 = 1.0 if q0 == qmax else 0.0
-        n1 = 1.0 if q1 == qmax else 0.0
-        n2 = 1.0 if q2 == qmax else 0.0
+        n0, n1, n2 = 0.0, 0.0, 1.0
     return math.copysign(n0, x0), math.copysign(n1, x1), math.copysign(n2, x2)
+
+
+@njit(cache=True, inline="always")
+def _project(shapes, kind, j, x0, x1, x2):
+    """Nearest point of primitive j's surface to a point outside it (for a point inside, of
+    the nearest face), and the outward normal there, primitive j's frame."""
+    d = _distance(shapes, kind, j, x0, x1, x2)
+    n0, n1, n2 = _normal(shapes, kind, j, x0, x1, x2)
+    return x0 - d * n0, x1 - d * n1, x2 - d * n2, n0, n1, n2
+
+
+@njit(cache=True, inline="always")
+def _entry(shapes, j, y0, y1, y2, x0, x1, x2):
+    """Where the straight path from y to x, a point inside box j, entered the box's surface.
+
+    Returns (found, point): found is False if y is inside the box too (no history).
+
+    A slab test finds where the path enters the un-rounded outer box (half extents h + r).
+    On a face's flat part that is the box's surface; elsewhere it is in a rounded edge's or
+    corner's region, within (sqrt(3) - 1) r of the surface, and a few steps of sphere
+    tracing (the distance is exact outside, so they never overshoot) close in on it before
+    the projection onto the surface.
+    """
+    if not _distance(shapes, BOX, j, y0, y1, y2) > 0.0:
+        return False, 0.0, 0.0, 0.0
+    r = shapes[j, 3]
+    t = 0.0
+    for ya, xa, h in ((y0, x0, shapes[j, 0]), (y1, x1, shapes[j, 1]), (y2, x2, shapes[j, 2])):
+        outer = h + r
+        if abs(ya) > outer:
+            # |x_a| <= h + r < |y_a|: the denominator is positive.
+            t = max(t, (abs(ya) - outer) / (abs(ya) - math.copysign(xa, ya)))
+    v0, v1, v2 = x0 - y0, x1 - y1, x2 - y2
+    length = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    for _ in range(4):
+        d = _distance(shapes, BOX, j, y0 + t * v0, y1 + t * v1, y2 + t * v2)
+        if not d > 1e-9:
+            break
+        t += d / length
+    a0, a1, a2, _, _, _ = _project(shapes, BOX, j, y0 + t * v0, y1 + t * v1, y2 + t * v2)
+    return True, a0, a1, a2
 
 
 @njit(cache=True)
@@ -149,7 +193,7 @@ def select(
     Returns:
         (nodes (M,), their points (M, 3), areas (M,) and distances (M,), ascending, the
         smallest over the primitives; hits (P,): how many nodes are within reach of each
-        primitive).
+        primitive; frames (P, 4, 3) of all primitives at this pose).
     """
     frames = _frames(poses)
     n_prim = prim_info.shape[0]
@@ -195,7 +239,7 @@ def select(
             cand_points[k, r] = points[i, r]
         cand_areas[k] = areas[i]
         cand_dist[k] = dist[order[k]]
-    return nodes, cand_points, cand_areas, cand_dist, hits
+    return nodes, cand_points, cand_areas, cand_dist, hits, frames
 
 
 @njit(cache=True)
@@ -206,6 +250,7 @@ def evaluate(
     distance,
     moved,
     poses,
+    prev_frames,
     shapes,
     prim_info,
     state_prim,
@@ -224,8 +269,11 @@ def evaluate(
         areas: (M,) node areas. nodes: (M,) node indices. distance: (M,) ascending distance
             of each candidate at selection; only those with ``distance <= moved`` can touch.
         poses, shapes, prim_info: the fingertip and candidate primitives (module docstring).
+        prev_frames: (P_all, 4, 3) frames of all the scene's primitives (indexed by
+            ``prim_info[:, 0]``) at the last committed pose.
         state_prim, state_anchor, state_delta: (N,), (N, 3), (N,) committed primitive index
-            (-1: not in contact), anchor (primitive frame) and penetration of every node.
+            (-1: not in contact), anchor (on the primitive's surface, its frame) and
+            penetration of every node.
         k_n, damping_rate, k_t, mu, thickness: normal stiffness (Pa/m), normal damping over
             the time step (Pa/m), tangential stiffness (Pa/m), friction coefficient, skin
             thickness (m).
@@ -254,57 +302,65 @@ def evaluate(
     count = 0
     max_pen = 0.0
     for i in range(m):
-        # Narrow phase: the most penetrated primitive (the first one on ties).
+        # Narrow phase: the primitive that penetrates the node most (the first one on ties),
+        # each measured from the tangent plane at the node's anchor on it (module docstring).
         p0, p1, p2 = points[i, 0], points[i, 1], points[i, 2]
-        best_d = np.inf
+        node = nodes[i]
+        best_d = 0.0
         best_j = -1
-        l0 = l1 = l2 = 0.0
+        l0 = l1 = l2 = a0 = a1 = a2 = n0 = n1 = n2 = 0.0
         for j in range(n_prim):
+            kind = prim_info[j, 1]
             x0, x1, x2 = _to_local(frames, j, p0, p1, p2)
-            d = _distance(shapes, prim_info[j, 1], j, x0, x1, x2)
+            if not _distance(shapes, kind, j, x0, x1, x2) < 0.0:
+                continue
+            prim = prim_info[j, 0]
+            if state_prim[node] == prim:
+                b0, b1, b2 = state_anchor[node, 0], state_anchor[node, 1], state_anchor[node, 2]
+            elif kind == PLANE:
+                b0, b1, b2 = x0, x1, shapes[j, 3]
+            else:
+                y0, y1, y2 = _to_local(prev_frames, prim, p0, p1, p2)
+                found, b0, b1, b2 = _entry(shapes, j, y0, y1, y2, x0, x1, x2)
+                if not found:
+                    b0, b1, b2, _, _, _ = _project(shapes, kind, j, x0, x1, x2)
+            m0, m1, m2 = _normal(shapes, kind, j, b0, b1, b2)
+            # A tangent plane of a convex body: d <= the node's signed distance < 0.
+            d = (x0 - b0) * m0 + (x1 - b1) * m1 + (x2 - b2) * m2
             if d < best_d:
                 best_d, best_j = d, j
-                l0, l1, l2 = x0, x1, x2
-        if not best_d < 0.0:
+                l0, l1, l2, a0, a1, a2, n0, n1, n2 = x0, x1, x2, b0, b1, b2, m0, m1, m2
+        if best_j < 0:
             continue
         j = best_j
         delta = -best_d
-        n0, n1, n2 = _normal(shapes, prim_info[j, 1], j, l0, l1, l2)
-
-        node = nodes[i]
         prim = prim_info[j, 0]
-        # p = k_n delta + c d(delta)/dt, no adhesion; a new contact starts undamped and
-        # anchors where it touched. u: tangential offset from the anchor.
-        if state_prim[node] == prim:
-            delta_prev = state_delta[node]
-            u0 = l0 - state_anchor[node, 0]
-            u1 = l1 - state_anchor[node, 1]
-            u2 = l2 - state_anchor[node, 2]
-        else:
-            delta_prev = delta
-            u0 = u1 = u2 = 0.0
+        # p = k_n delta + c d(delta)/dt, no adhesion; a new contact starts undamped.
+        # u: tangential offset of the node from its anchor.
+        delta_prev = state_delta[node] if state_prim[node] == prim else delta
         pressure = max((delta - delta_prev) * damping_rate + k_n * delta, 0.0)
-        un = u0 * n0 + u1 * n1 + u2 * n2
-        u0 -= un * n0
-        u1 -= un * n1
-        u2 -= un * n2
+        u0, u1, u2 = l0 - a0 + delta * n0, l1 - a1 + delta * n1, l2 - a2 + delta * n2
         u_sq = u0 * u0 + u1 * u1 + u2 * u2
-        # Coulomb cap: slip moves the anchor so that k_t |u| = mu p.
+        # Coulomb cap: slip moves the anchor along the surface so that k_t |u| = mu p.
         cap = mu * pressure
         if k_t * k_t * u_sq > cap * cap:
-            scale = cap / (k_t * math.sqrt(u_sq))
-            u0 *= scale
-            u1 *= scale
-            u2 *= scale
+            slip = 1.0 - cap / (k_t * math.sqrt(u_sq))
+            a0, a1, a2, _, _, _ = _project(
+                shapes, prim_info[j, 1], j, a0 + slip * u0, a1 + slip * u1, a2 + slip * u2
+            )
+            u0 -= slip * u0
+            u1 -= slip * u1
+            u2 -= slip * u2
         fn = pressure * areas[i]
         ft = k_t * areas[i]
         f0, f1, f2 = n0 * fn - u0 * ft, n1 * fn - u1 * ft, n2 * fn - u2 * ft
-        # The force acts at the deformed point, on the primitive's surface.
+        # The force acts at the deformed point: on the tangent plane at the anchor, which is
+        # the primitive's surface for a face.
         c0, c1, c2 = l0 + delta * n0, l1 + delta * n1, l2 + delta * n2
         row = node_data[count]
         row[LOCAL], row[LOCAL + 1], row[LOCAL + 2] = l0, l1, l2
         row[NORMAL], row[NORMAL + 1], row[NORMAL + 2] = n0, n1, n2
-        row[ANCHOR], row[ANCHOR + 1], row[ANCHOR + 2] = l0 - u0, l1 - u1, l2 - u2
+        row[ANCHOR], row[ANCHOR + 1], row[ANCHOR + 2] = a0, a1, a2
         row[FORCE], row[FORCE + 1], row[FORCE + 2] = f0, f1, f2
         row[POINT], row[POINT + 1], row[POINT + 2] = c0, c1, c2
         row[DELTA] = delta
@@ -371,9 +427,23 @@ def evaluate(
 
 
 @njit(cache=True)
-def commit(state_prim, state_anchor, state_delta, old_ids, old_count, node_ids, node_data, count):
+def commit(
+    state_prim,
+    state_anchor,
+    state_delta,
+    prev_frames,
+    old_ids,
+    old_count,
+    node_ids,
+    node_data,
+    count,
+    prim_data,
+    prim_rows,
+):
     """Make a contact the skin's state: forget the nodes of the previous one, store this one's
-    primitive, anchor and penetration per node (arrays as in ``evaluate``)."""
+    primitive, anchor and penetration per node, and its frames as the primitives' previous
+    ones (``prim_rows``: the scene's index of each row of ``prim_data``; other arrays as in
+    ``evaluate``)."""
     for i in range(old_count):
         state_prim[old_ids[i, 0]] = -1
     for i in range(count):
@@ -382,3 +452,7 @@ def commit(state_prim, state_anchor, state_delta, old_ids, old_count, node_ids, 
         for r in range(3):
             state_anchor[node, r] = node_data[i, ANCHOR + r]
         state_delta[node] = node_data[i, DELTA]
+    for k in range(prim_rows.shape[0]):
+        for r in range(4):
+            for c in range(3):
+                prev_frames[prim_rows[k], r, c] = prim_data[k, FRAME + 3 * r + c]

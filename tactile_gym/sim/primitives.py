@@ -3,7 +3,10 @@
 Each primitive has a pose in the world frame (``center``, ``rotation`` whose columns are its
 local axes) and a signed distance in its *local* frame (negative inside). The skin's kernels
 (``tactile_gym/sim/_kernels.py``) evaluate nodes in the primitive's local frame; the functions
-here serve the broad phase's set-up and tests. Units: metres.
+here serve the broad phase's set-up and tests. The signed distance tells whether a node is
+inside; which surface presses it, and how deep, is the skin's business (near an edge it is
+the face the node came through, not the nearest one: ``tactile_gym/sim/skin.py``). Units:
+metres.
 """
 
 from __future__ import annotations

@@ -7,17 +7,43 @@ sensor frame to the world frame. SI units: m, N, N m, s.
 
 Model, per node i with area A_i on the undeformed outer surface:
 
-* penetration delta_i = -signed distance of the node to the most penetrated primitive (object
-  boxes with rounded edges, table plane); the normal n_i is that primitive's outward normal,
-  which is the interface normal of a soft skin pressed by a rigid body;
+* each node in contact has an anchor a_i on the surface of the primitive that presses it
+  (object boxes with rounded edges, table plane), where it touched it; it is pressed by the
+  tangent plane there: penetration delta_i = (a_i - x_i) . n_i below that plane, with n_i
+  the surface's outward normal at a_i, which is the interface normal of a soft skin pressed
+  by a rigid body. Of several primitives, the one that penetrates the node most presses it;
 * normal pressure p_i = max(0, k_n delta_i + c d(delta_i)/dt) (no adhesion);
-* tangential stick-slip spring: an anchor fixed on the primitive where the node first touched;
-  traction -k_t u_i with u_i the tangential offset from the anchor, capped at mu p_i by moving
-  the anchor (slip);
+* tangential stick-slip spring: traction -k_t u_i with u_i the node's tangential offset from
+  its anchor, capped at mu p_i by moving the anchor toward the node along the surface (slip);
 * the force on the skin, A_i (p_i n_i - k_t u_i), acts at the deformed point
-  x_i + delta_i n_i (on the object's surface): that point, not the undeformed node, is where
-  the object touches the skin, so the wrench carries the indentation offset the real sensor
-  sees.
+  x_i + delta_i n_i (on the object's surface for a face): that point, not the undeformed
+  node, is where the object touches the skin, so the wrench carries the indentation offset
+  the real sensor sees.
+
+Why anchors rather than the signed distance (DESIGN.md 2.2 and 2.4): the box's signed
+distance pushes a node out through the *nearest* face. Near an edge a node that came in
+through the top face soon lies nearer the side face than the top, and its force then
+points sideways and cancels the tilt that a truncated patch gives the wrench, which is what
+makes a plain press on an edge reveal the edge. A node is pressed by the surface it came
+through: the face, the rounded edge or the side face. For a face, the tangent plane is the
+face's plane wherever the anchor slides on it, so the node is pressed along the face normal
+by its depth below the face, however deep it goes and whichever face is nearer. On a
+rounded edge (radius ``ObjectConfig.edge_radius``) the plane turns with the anchor: where
+the rounding is shallower than the friction angle the node sticks and is pressed along the
+normal where it touched; on its steep part the anchor slips down onto the side face. The
+anchor moves continuously, so the penetration does as a node crosses from a rounding into
+the inner box. A box is convex, so the plane's penetration is never below the node's depth
+inside the box, and a node is in contact exactly while it is inside the box: one that leaves
+through another face than it came in by drops its load there, as a real edge's support ends.
+
+Where a node first touches: its path since the last committed pose (the primitives'
+frames are kept at every commit and at ``select``) is taken as straight, and its anchor is
+where that path entered the box (a slab test on the un-rounded box, then a few steps of
+sphere tracing onto a rounding), so a node that arrives deep in one step (fast motion, about
+1 mm per substep) still gets the face it came through. Only without that history, after a
+teleport (``select`` then ``evaluate`` at the same pose) with the node already inside, it
+falls back to the nearest surface point. The table plane anchors where the node is, on the
+plane.
 
 A node whose penetration exceeds the skin thickness has reached the rigid shell: that is
 reported (``Contact.shell_contact``), never hidden; the spring law continues linearly.
@@ -65,6 +91,7 @@ class Selection:
         reach: motion bound (plus margin) the selection covers, m.
         shapes, prim_info: those primitives' shapes and (index, kind), as the kernels take
             them (:mod:`tactile_gym.sim._kernels`).
+        prim_rows: (P,) int64, ``prims`` as an array.
         poses: (P + 1, 4, 3) buffer for the poses of each evaluation.
     """
 
@@ -76,6 +103,7 @@ class Selection:
     reach: float
     shapes: np.ndarray
     prim_info: np.ndarray
+    prim_rows: np.ndarray
     poses: np.ndarray
 
 
@@ -89,10 +117,11 @@ class Contact:
         nodes: (K,) indices of nodes in contact.
         prim: (K,) index of the primitive each node touches (into the primitive list).
         local: (3, K) node positions in their primitive's frame, m.
-        normal: (3, K) primitive outward normals, primitive frame.
+        normal: (3, K) outward surface normals at the anchors (before this step's slip),
+            primitive frame.
         delta: (K,) penetration, m.
         pressure: (K,) normal pressure, Pa.
-        anchor: (3, K) tangential anchors after this step, primitive frame, m.
+        anchor: (3, K) anchors after this step, on the primitive's surface, its frame, m.
         force_local: (3, K) force on the skin at each node, primitive frame, N.
         point_local: (3, K) contact points (deformed skin), primitive frame, m.
         wrench: (6,) force on the skin and moment about the sensor origin, sensor frame.
@@ -109,6 +138,7 @@ class Contact:
         "_node_ids",
         "_prim_data",
         "_prim_index",
+        "_prim_rows",
         "_prim_wrench",
         "force_norm",
         "max_penetration",
@@ -128,6 +158,7 @@ class Contact:
         node_data: np.ndarray,
         node_ids: np.ndarray,
         prim_index: list[int],
+        prim_rows: np.ndarray,
     ) -> None:
         self.n_active = count
         self.max_penetration = max_penetration
@@ -138,6 +169,7 @@ class Contact:
         self._node_data = node_data
         self._node_ids = node_ids
         self._prim_index = prim_index
+        self._prim_rows = prim_rows
         self._prim_wrench: dict[int, np.ndarray] | None = None
 
     @property
@@ -231,6 +263,7 @@ _EMPTY = Contact(
     node_data=np.zeros((0, _kernels.NODE_COLS)),
     node_ids=np.zeros((0, 2), dtype=np.int64),
     prim_index=[],
+    prim_rows=np.zeros(0, dtype=np.int64),
 )
 _EMPTY.wrench.flags.writeable = False
 
@@ -296,12 +329,15 @@ class SoftSkin:
         self.mu = float(config.friction)
         self.thickness = float(geometry.skin_thickness)
         n = len(self.points)
-        # Committed state per node: primitive touched (-1: none), anchor in that
-        # primitive's frame, penetration. Only the nodes of ``contact`` have one.
+        # Committed state per node: primitive touched (-1: none), anchor on its surface in
+        # its frame, penetration. Only the nodes of ``contact`` have one.
         self._prim = np.full(n, -1, dtype=np.int64)
         self._anchor = np.zeros((n, 3))
         self._delta = np.zeros(n)
         self._slot = np.full(n, -1, dtype=np.int64)  # scratch of the broad phase
+        # Frames (x_primitive = A x_sensor + b) of every primitive at the last committed
+        # pose (or ``select``): where a node came from, to find where it entered a box.
+        self._prev_frames = np.zeros((0, 4, 3))
         self.contact = _EMPTY
 
     @property
@@ -325,6 +361,9 @@ class SoftSkin:
     ) -> Selection:
         """Pre-select nodes that may touch a primitive during the coming substeps.
 
+        The pose is taken as committed: nodes that first touch a box later in this control
+        step come in from where they are now.
+
         Args:
             primitives: :class:`~tactile_gym.sim.primitives.RoundedBox` and
                 :class:`~tactile_gym.sim.primitives.Plane` objects, posed now.
@@ -338,7 +377,7 @@ class SoftSkin:
         prim_info = np.array([range(len(primitives)), kinds], dtype=np.int64).T.copy()
         poses = np.empty((len(primitives) + 1, 4, 3))
         _fill_poses(poses, primitives, rotation, position)
-        nodes, points, areas, dist, hits = _kernels.select(
+        nodes, points, areas, dist, hits, frames = _kernels.select(
             self.points,
             self.areas,
             self._cl_center,
@@ -352,6 +391,9 @@ class SoftSkin:
             reach,
             self._slot,
         )
+        # The pose here is committed (the scene selects between control steps, or after a
+        # teleport, where every node then lacks a history).
+        self._prev_frames = frames
         near = np.flatnonzero(hits)
         return Selection(
             nodes=nodes,
@@ -362,6 +404,7 @@ class SoftSkin:
             reach=reach,
             shapes=shapes[near],
             prim_info=prim_info[near],
+            prim_rows=near.astype(np.int64),
             poses=np.empty((len(near) + 1, 4, 3)),
         )
 
@@ -397,6 +440,7 @@ class SoftSkin:
             selection.distance,
             np.inf if moved is None else float(moved),
             poses,
+            self._prev_frames,
             selection.shapes,
             selection.prim_info,
             self._prim,
@@ -408,9 +452,8 @@ class SoftSkin:
             self.mu,
             self.thickness,
         )
-        if out[0] == 0:
-            return _EMPTY
-        return Contact(*out, selection.prims)
+        # Kept also without contact: committing it records the primitives' frames.
+        return Contact(*out, selection.prims, selection.prim_rows)
 
     def commit(self, contact: Contact) -> None:
         """Make ``contact`` the skin's state (anchors, penetration) for the next step."""
@@ -419,10 +462,13 @@ class SoftSkin:
             self._prim,
             self._anchor,
             self._delta,
+            self._prev_frames,
             old._node_ids,
             old.n_active,
             contact._node_ids,
             contact._node_data,
             contact.n_active,
+            contact._prim_data,
+            contact._prim_rows,
         )
         self.contact = contact
