@@ -73,8 +73,9 @@ def estimates(scene, n: int, seed: int = 0):
 
 
 def test_oblique_press_with_shear_senses_edge(scene):
-    """DESIGN 2.1-2.2: a shear across the edge tilts the force; point within 2 mm of the
-    edge after indentation correction, direction within 3 degrees at default noise."""
+    """DESIGN 2.1-2.2: a shear across the edge tilts the force further; point within 2 mm of
+    the edge after indentation correction, direction within 0.5 degree noise-free and
+    1.5 degrees (median) at default noise (measured 0.02 and 0.6)."""
     press_edge(scene, tilt_deg=15.0, force=5.0, shear=0.0008)
     assert abs(np.rad2deg(scene.joint_angle)) < 1.0  # the press did not spin the link
     ep, ed = scene.edge_line
@@ -82,7 +83,7 @@ def test_oblique_press_with_shear_senses_edge(scene):
     w = scene.true_wrench
     clean = estimate_contact(w[:3], w[3:], scene.geometry, skin_stiffness=k_n)
     assert clean.valid
-    assert angle_deg(scene.sensor_to_world_vector(clean.edge_direction), ed) < 2.0
+    assert angle_deg(scene.sensor_to_world_vector(clean.edge_direction), ed) < 0.5
     errs, dists = [], []
     for est in estimates(scene, 20):
         assert est.valid
@@ -92,7 +93,7 @@ def test_oblique_press_with_shear_senses_edge(scene):
         f"edge error median {np.median(errs):.2f} deg, max {max(errs):.2f} deg; "
         f"corrected point off the edge max {1e3 * max(dists):.2f} mm"
     )
-    assert np.median(errs) < 3.0
+    assert np.median(errs) < 1.5
     assert max(dists) < 0.002
 
 
