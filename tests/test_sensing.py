@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import math
 import subprocess
 import sys
@@ -15,6 +16,7 @@ from tactile_gym.sensing import (
     EDGE_STD_UNOBSERVABLE,
     ContactEstimate,
     FingertipGeometry,
+    SensorConfig,
     edge_from_trace,
     estimate_contact,
     indentation_depth,
@@ -24,8 +26,8 @@ GEOM = FingertipGeometry()
 R = GEOM.outer_radius
 L = GEOM.cylinder_length
 K_N = 8.8e7  # N/m^3, DESIGN.md 2.4
-SIGMA_F = 0.02  # N
-SIGMA_M = 5e-4  # N m
+SIGMA_F = SensorConfig().force_noise_std  # N
+SIGMA_M = SensorConfig().moment_noise_std  # N m
 
 
 def sphere_contact(polar: float, azimuth: float) -> tuple[np.ndarray, np.ndarray]:
@@ -414,6 +416,30 @@ def test_edge_from_exact_trace_and_degenerate_traces():
         edge_from_trace(np.array([[0.0, 0.0, np.nan], [1.0, 0.0, 0.0]]))
     with pytest.raises(ValueError, match="point_std"):
         edge_from_trace(pts, point_std=-1.0)
+
+
+# --- sensor config ---------------------------------------------------------------------------
+
+
+def test_estimate_contact_noise_defaults_are_the_sensor_configs():
+    params = inspect.signature(estimate_contact).parameters
+    cfg = SensorConfig()
+    assert params["force_noise_std"].default == cfg.force_noise_std
+    assert params["moment_noise_std"].default == cfg.moment_noise_std
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"force_noise_std": -0.1}, r"force_noise_std must be a finite number >= 0 N, got -0.1"),
+        ({"moment_noise_std": math.inf}, r"moment_noise_std must be a finite number >= 0 N m"),
+        ({"force_bias": (0.0, 1.0)}, "force_bias must be 3 finite numbers"),
+        ({"moment_bias": (0.0, math.nan, 0.0)}, "moment_bias must be 3 finite numbers"),
+    ],
+)
+def test_sensor_config_validation(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        SensorConfig(**kwargs)
 
 
 # --- packaging -------------------------------------------------------------------------------

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.sensing.geometry import FingertipGeometry
+from tactile_gym.sensing.sensor import SensorConfig
 from tactile_gym.spatial import orient_like
 
 __all__ = [
@@ -388,8 +389,8 @@ def estimate_contact(
     *,
     model: str = "soft",
     force_threshold: float = 0.2,
-    force_noise_std: float = 0.02,
-    moment_noise_std: float = 5e-4,
+    force_noise_std: float = SensorConfig.force_noise_std,
+    moment_noise_std: float = SensorConfig.moment_noise_std,
     skin_stiffness: float | None = None,
     contact_shape: str = "edge",
     previous_edge=None,
@@ -440,8 +441,9 @@ def estimate_contact(
         geometry: the fingertip.
         model: one of ``CONTACT_MODELS``.
         force_threshold: below this |f|, N, there is no contact.
-        force_noise_std: sensor force noise per axis, N (for edge_std and the miss tolerance).
-        moment_noise_std: sensor moment noise per axis, N m.
+        force_noise_std: sensor force noise per axis, N (for edge_std and the miss tolerance);
+            defaults to ``SensorConfig``'s.
+        moment_noise_std: sensor moment noise per axis, N m; defaults to ``SensorConfig``'s.
         skin_stiffness: Winkler modulus k_n, N/m^3, to model the indentation; None skips it.
         contact_shape: object shape for the indentation model, one of ``CONTACT_SHAPES``.
         previous_edge: (3,) last edge direction, sensor frame, to fix the sign of e.
