@@ -340,48 +340,6 @@ def _depth(load: float, k: float, rad: float, contact_shape: str) -> float:
     return (load / (k * (16.0 / 15.0) * math.sqrt(2.0 * rad))) ** 0.4
 
 
-def _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m) -> float:
-    """First-order RMS angle error of e = normalise(n x f) under isotropic sensor noise.
-
-    Let g = n x e (= -f_t/|f_t|). Perturbing the wrench by (df, dm) moves r by
-    dr = a e + b g with h = dm - r x df and (i) soft: a = -h.g/f_n, b = h.e/f_n;
-    (ii) hard: a = -(f_n h.g + |f_t| h.n)/|f|^2, b = h.e/f_n. The normal turns by
-    dn.e = dr.k with k = K e (K the shape operator: I/R on the sphere, t t^T/R on the
-    cylinder, t = e_z x n), so dn.e = h.P with P = (e.k) alpha + (g.k) e/f_n, where h.alpha = a.
-    e then turns in the tangent plane by (df.e - f_n dn.e)/|f_t| and out of it by -dn.e;
-    with h.P = dm.P - df.(P x r) the two variances are
-    (sigma_f^2 |e + f_n P x r|^2 + sigma_m^2 f_n^2 |P|^2)/|f_t|^2 and
-    sigma_f^2 |P x r|^2 + sigma_m^2 |P|^2.
-    For a press on the hemisphere's top this is ~ (sigma_f + sigma_m/R)/(|f| sin tilt), the
-    DESIGN.md 2.1 estimate, with the lever |r| of the sensor origin folded in.
-    """
-    g = _cross(n, e)
-    if on_sphere:
-        ek, gk = 1.0 / radius, 0.0
-    else:
-        t = (-n[1], n[0], 0.0)
-        te = _dot(t, e)
-        ek = te * te / radius
-        gk = te * _dot(t, g) / radius
-    if model == "soft":
-        alpha = (-g[0] / fn, -g[1] / fn, -g[2] / fn)
-    else:
-        f2 = _dot(f, f)
-        alpha = (
-            -(fn * g[0] + ft * n[0]) / f2,
-            -(fn * g[1] + ft * n[1]) / f2,
-            -(fn * g[2] + ft * n[2]) / f2,
-        )
-    gkf = gk / fn
-    p = (ek * alpha[0] + gkf * e[0], ek * alpha[1] + gkf * e[1], ek * alpha[2] + gkf * e[2])
-    pxr = _cross(p, r)
-    a_g = (e[0] + fn * pxr[0], e[1] + fn * pxr[1], e[2] + fn * pxr[2])
-    p2 = _dot(p, p)
-    var_g = (sigma_f * sigma_f * _dot(a_g, a_g) + sigma_m * sigma_m * fn * fn * p2) / (ft * ft)
-    var_n = sigma_f * sigma_f * _dot(pxr, pxr) + sigma_m * sigma_m * p2
-    return math.sqrt(var_g + var_n)
-
-
 def estimate_contact(
     force,
     moment,
@@ -475,15 +433,95 @@ def estimate_contact(
     if fnorm < threshold or fnorm == 0.0:
         return ContactEstimate.invalid(f, f"force below threshold ({fnorm:.4g} N < {threshold} N)")
     radius = geometry.outer_radius
-    length = geometry.cylinder_length
+    contact = _contact_point(f, m, fnorm, model, radius, geometry.cylinder_length, sigma_f, sigma_m)
+    if isinstance(contact, str):
+        return ContactEstimate.invalid(f, contact)
+    r, n, on_sphere, on_surface = contact
+    q_n, q_t = _friction_moment(f, m, r, n)
+    edge, edge_std, tilt = _edge(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, prev)
+    corrected, delta = _NAN3, math.nan
+    if skin_stiffness is not None:
+        corrected, delta = _indentation_correction(f, r, n, k_n, geometry, contact_shape)
+    return ContactEstimate(
+        valid=True,
+        reason="",
+        point=np.array(r),
+        normal=np.array(n),
+        force=np.array(f),
+        normal_moment=np.array(q_n),
+        tangential_moment=np.array(q_t),
+        edge_direction=np.array(edge),
+        edge_std=edge_std,
+        corrected_point=np.array(corrected),
+        indentation=delta,
+        on_surface=on_surface,
+        tilt=tilt,
+    )
+
+
+def _contact_point(f, m, fnorm, model, radius, length, sigma_f, sigma_m):
+    """Bicchi's contact point on the skin, with the fallbacks for a line that misses it.
+
+    The candidates are the closed-form solutions on each piece of the skin (see
+    ``estimate_contact``): the pushing one inside its piece wins. Failing that, the nearest
+    of the pushing solutions just outside their piece (moved onto the skin) and, when no
+    pulling solution lies on the skin, the skin point closest to the line of action, if it
+    is within the noise tolerance 3 (sigma_m + (L + R) sigma_f)/|f|.
+
+    Args:
+        f: (3,) force, sensor frame, N.
+        m: (3,) moment about the sensor origin, sensor frame, N m.
+        fnorm: |f|, N; > 0.
+        model: one of ``CONTACT_MODELS``.
+        radius: outer skin radius R, m.
+        length: cylinder length L (hemisphere centre height), m.
+        sigma_f: force noise per axis, N.
+        sigma_m: moment noise per axis, N m.
+
+    Returns:
+        (r, n, on_sphere, on_surface): the contact point (3,) and outward normal (3,) as
+        tuples, whether r is on the hemisphere, and False for a fallback point; or, when no
+        contact explains the wrench, the reason as a string.
+    """
     u = (f[0] / fnorm, f[1] / fnorm, f[2] / fnorm)
     r0 = _cross(f, m)
     r0 = (r0[0] / (fnorm * fnorm), r0[1] / (fnorm * fnorm), r0[2] / (fnorm * fnorm))
+    best, outside, pulls = _skin_solutions(f, m, fnorm, u, r0, model, radius, length)
+    if best is not None:
+        return best[1], best[2], best[3], True
+    # Fallbacks: a pushing solution just off the skin, moved onto it; or, when the line of
+    # action touches no skin at all, the skin point closest to it. A pulling solution on
+    # the skin beats a pushing one farther off than the noise allows.
+    fallbacks = [_project_to_skin(p, radius, length) for p in outside]
+    if not pulls:
+        fallbacks.append(_closest_to_line(r0, u, radius, length))
+    tol = 3.0 * (sigma_m + (length + radius) * sigma_f) / fnorm
+    r, n, dist = min(fallbacks, key=lambda c: c[2])
+    if dist > tol:
+        if pulls:
+            return "force pulls out of the skin (f . n > 0)"
+        return f"line of action misses surface by {dist:.3g} m (tolerance {tol:.3g} m)"
+    return r, n, r[2] >= length, False
 
-    # Classify each piece's solutions: pushing and inside the piece (the answer), pushing
-    # but just outside it (sensor noise near the rim), or pulling and inside it.
-    best = None  # (|sigma|, r, n, on_sphere)
-    outside = []  # pushing solutions outside their piece
+
+def _skin_solutions(f, m, fnorm, u, r0, model, radius, length):
+    """Classify each skin piece's solutions for the contact point.
+
+    Args:
+        f, m, fnorm: the wrench and |f| (see ``_contact_point``).
+        u: (3,) f / |f|.
+        r0: (3,) point of the line of action closest to the sensor origin, f x m / |f|^2, m.
+        model, radius, length: see ``_contact_point``.
+
+    Returns:
+        (best, outside, pulls): best is (|torsion|, r, n, on_sphere) of the pushing solution
+        inside its piece (soft model: the one with the smaller torsion |q . n| if both
+        pieces give one), or None; outside lists the pushing solutions that lie outside
+        their piece (sensor noise near the rim); pulls says whether a pulling solution lies
+        inside its piece.
+    """
+    best = None
+    outside = []
     pulls = False
     if model == "soft":
         for n, sigma, pushes in _sphere_soft(f, u, fnorm, m, radius, length):
@@ -504,92 +542,136 @@ def estimate_contact(
                     pulls = True
             elif pushes:
                 outside.append(r)
-    else:
-        for r, n, pushes in _sphere_hard(r0, u, radius, length):
-            if r[2] >= length - _REGION_TOL:
+        return best, outside, pulls
+    for r, n, pushes in _sphere_hard(r0, u, radius, length):
+        if r[2] >= length - _REGION_TOL:
+            if pushes:
+                best = (0.0, r, n, True)
+            else:
+                pulls = True
+        elif pushes:
+            outside.append(r)
+    if best is None:
+        for r, n, pushes in _cylinder_hard(r0, u, radius):
+            if -_REGION_TOL <= r[2] <= length + _REGION_TOL:
                 if pushes:
-                    best = (0.0, r, n, True)
+                    best = (0.0, r, n, False)
                 else:
                     pulls = True
             elif pushes:
                 outside.append(r)
-        if best is None:
-            for r, n, pushes in _cylinder_hard(r0, u, radius):
-                if -_REGION_TOL <= r[2] <= length + _REGION_TOL:
-                    if pushes:
-                        best = (0.0, r, n, False)
-                    else:
-                        pulls = True
-                elif pushes:
-                    outside.append(r)
+    return best, outside, pulls
 
-    on_surface = True
-    if best is not None:
-        _, r, n, on_sphere = best
-    else:
-        # Fallbacks: a pushing solution just off the skin, moved onto it; or, when the line
-        # of action touches no skin at all, the skin point closest to it. A pulling solution
-        # on the skin beats a pushing one farther off than the noise allows.
-        fallbacks = [_project_to_skin(p, radius, length) for p in outside]
-        if not pulls:
-            fallbacks.append(_closest_to_line(r0, u, radius, length))
-        tol = 3.0 * (sigma_m + (length + radius) * sigma_f) / fnorm
-        r, n, dist = min(fallbacks, key=lambda c: c[2])
-        if dist > tol:
-            if pulls:
-                return ContactEstimate.invalid(f, "force pulls out of the skin (f . n > 0)")
-            return ContactEstimate.invalid(
-                f, f"line of action misses surface by {dist:.3g} m (tolerance {tol:.3g} m)"
-            )
-        on_surface = False
-        on_sphere = r[2] >= length
 
-    # Friction moment, eq. 12-14.
+def _friction_moment(f, m, r, n):
+    """The friction moment q = m - r x f (eq. 12) split along the normal (eq. 13-14).
+
+    Args:
+        f: (3,) force, N; m: (3,) moment about the sensor origin, N m.
+        r: (3,) contact point, m; n: (3,) outward unit normal there. All sensor frame.
+
+    Returns:
+        (q_n, q_t): the normal part (q . n) n and the tangential part q - q_n, N m.
+    """
     rxf = _cross(r, f)
     q = (m[0] - rxf[0], m[1] - rxf[1], m[2] - rxf[2])
     qn = _dot(q, n)
     q_n = (qn * n[0], qn * n[1], qn * n[2])
-    q_t = (q[0] - q_n[0], q[1] - q_n[1], q[2] - q_n[2])
+    return q_n, (q[0] - q_n[0], q[1] - q_n[1], q[2] - q_n[2])
 
+
+def _edge(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, prev):
+    """Edge direction e = normalise(n x f), its predicted error and the force's tilt.
+
+    Args:
+        f: (3,) force, N; fnorm: |f|, N.
+        r: (3,) contact point, m; n: (3,) outward unit normal there. All sensor frame.
+        on_sphere: whether r is on the hemisphere (else on the cylinder side).
+        radius: outer skin radius R, m.
+        model: one of ``CONTACT_MODELS``.
+        sigma_f, sigma_m: sensor noise per axis, N and N m.
+        prev: (3,) previous edge direction to orient e like, or None.
+
+    Returns:
+        (e, edge_std, tilt): e (3,) oriented by ``orient_like``, or NaN when unobservable;
+        its RMS angle error, rad (``EDGE_STD_UNOBSERVABLE`` when unobservable); the angle
+        between f and -n, rad.
+    """
     fn = _dot(f, n)
     ftv = (f[0] - fn * n[0], f[1] - fn * n[1], f[2] - fn * n[2])
     ft = math.sqrt(_dot(ftv, ftv))
     tilt = math.atan2(ft, -fn)
-
-    edge = _NAN3
-    edge_std = EDGE_STD_UNOBSERVABLE
     if ft > 1e-12 * fnorm and abs(fn) > 1e-12 * fnorm:
         ev = _cross(n, ftv)
         e = (ev[0] / ft, ev[1] / ft, ev[2] / ft)
         std = _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m)
         if std < EDGE_STD_UNOBSERVABLE:
-            edge_std = std
-            edge = tuple(orient_like(e, [] if prev is None else [prev]).tolist())
+            return tuple(orient_like(e, [] if prev is None else [prev]).tolist()), std, tilt
+    return _NAN3, EDGE_STD_UNOBSERVABLE, tilt
 
-    corrected = _NAN3
-    delta = math.nan
-    if skin_stiffness is not None:
-        delta = min(
-            _depth(max(-fn, 0.0), k_n, radius, contact_shape),
-            geometry.skin_thickness,
+
+def _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m) -> float:
+    """First-order RMS angle error of e = normalise(n x f) under isotropic sensor noise.
+
+    Let g = n x e (= -f_t/|f_t|). Perturbing the wrench by (df, dm) moves r by
+    dr = a e + b g with h = dm - r x df and (i) soft: a = -h.g/f_n, b = h.e/f_n;
+    (ii) hard: a = -(f_n h.g + |f_t| h.n)/|f|^2, b = h.e/f_n. The normal turns by
+    dn.e = dr.k with k = K e (K the shape operator: I/R on the sphere, t t^T/R on the
+    cylinder, t = e_z x n), so dn.e = h.P with P = (e.k) alpha + (g.k) e/f_n, where h.alpha = a.
+    e then turns in the tangent plane by (df.e - f_n dn.e)/|f_t| and out of it by -dn.e;
+    with h.P = dm.P - df.(P x r) the two variances are
+    (sigma_f^2 |e + f_n P x r|^2 + sigma_m^2 f_n^2 |P|^2)/|f_t|^2 and
+    sigma_f^2 |P x r|^2 + sigma_m^2 |P|^2.
+    For a press on the hemisphere's top this is ~ (sigma_f + sigma_m/R)/(|f| sin tilt), the
+    DESIGN.md 2.1 estimate, with the lever |r| of the sensor origin folded in.
+    """
+    g = _cross(n, e)
+    if on_sphere:
+        ek, gk = 1.0 / radius, 0.0
+    else:
+        t = (-n[1], n[0], 0.0)
+        te = _dot(t, e)
+        ek = te * te / radius
+        gk = te * _dot(t, g) / radius
+    if model == "soft":
+        alpha = (-g[0] / fn, -g[1] / fn, -g[2] / fn)
+    else:
+        f2 = _dot(f, f)
+        alpha = (
+            -(fn * g[0] + ft * n[0]) / f2,
+            -(fn * g[1] + ft * n[1]) / f2,
+            -(fn * g[2] + ft * n[2]) / f2,
         )
-        corrected = (r[0] - delta * n[0], r[1] - delta * n[1], r[2] - delta * n[2])
+    gkf = gk / fn
+    p = (ek * alpha[0] + gkf * e[0], ek * alpha[1] + gkf * e[1], ek * alpha[2] + gkf * e[2])
+    pxr = _cross(p, r)
+    a_g = (e[0] + fn * pxr[0], e[1] + fn * pxr[1], e[2] + fn * pxr[2])
+    p2 = _dot(p, p)
+    var_g = (sigma_f * sigma_f * _dot(a_g, a_g) + sigma_m * sigma_m * fn * fn * p2) / (ft * ft)
+    var_n = sigma_f * sigma_f * _dot(pxr, pxr) + sigma_m * sigma_m * p2
+    return math.sqrt(var_g + var_n)
 
-    return ContactEstimate(
-        valid=True,
-        reason="",
-        point=np.array(r),
-        normal=np.array(n),
-        force=np.array(f),
-        normal_moment=np.array(q_n),
-        tangential_moment=np.array(q_t),
-        edge_direction=np.array(edge),
-        edge_std=edge_std,
-        corrected_point=np.array(corrected),
-        indentation=delta,
-        on_surface=on_surface,
-        tilt=tilt,
+
+def _indentation_correction(f, r, n, k_n, geometry, contact_shape):
+    """Indentation depth and the contact point moved in by it (DESIGN.md 2.6).
+
+    Args:
+        f: (3,) force, N; r: (3,) contact point, m; n: (3,) outward unit normal. Sensor frame.
+        k_n: Winkler modulus, N/m^3; > 0.
+        geometry: the fingertip (outer radius and skin thickness).
+        contact_shape: one of ``CONTACT_SHAPES``.
+
+    Returns:
+        (r - delta n, delta): the corrected point (3,), m, and delta, m, the depth of
+        ``indentation_depth`` for the normal load -f . n capped at the skin thickness (the
+        shell is rigid).
+    """
+    load = max(-_dot(f, n), 0.0)
+    delta = min(
+        _depth(load, k_n, geometry.outer_radius, contact_shape),
+        geometry.skin_thickness,
     )
+    return (r[0] - delta * n[0], r[1] - delta * n[1], r[2] - delta * n[2]), delta
 
 
 def edge_from_trace(points, point_std: float = 0.0005) -> tuple[np.ndarray, float]:
