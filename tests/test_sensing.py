@@ -226,6 +226,55 @@ def test_edge_std_is_calibrated_against_sensor_noise(model, name, tilt_deg):
         assert rule / 2 < truth.edge_std
 
 
+def noisy_edges(f, m, model, draws, seed, **kwargs):
+    """Estimates from ``draws`` noisy readings of the wrench (f, m), sensor noise SIGMA_F/M."""
+    rng = np.random.default_rng(seed)
+    df = rng.normal(0.0, SIGMA_F, (draws, 3))
+    dm = rng.normal(0.0, SIGMA_M, (draws, 3))
+    return [estimate_contact(f + a, m + b, model=model, **kwargs) for a, b in zip(df, dm)]
+
+
+@pytest.mark.parametrize(
+    ("name", "model", "tilt_deg"),
+    [("sphere_top", "soft", 10.0), ("sphere_mid", "hard", 12.0), ("cylinder_mid", "soft", 15.0)],
+)
+def test_edge_cov_is_calibrated_in_both_principal_directions(name, model, tilt_deg):
+    """Empirical covariance of de against edge_cov, along its two principal axes.
+
+    de's in-plane and out-of-plane parts share the turn of the normal, so they are strongly
+    correlated (0.65-0.96 here) and the principal axes are not g and n; checking the
+    variance along each predicted axis and the correlation across them tests the whole
+    matrix. 2000 draws give a sampling error of 3 % on each variance.
+    """
+    r, n = CONTACTS[name]
+    f = pressing_force(n, 5.0, math.radians(tilt_deg), 0.9)
+    m = np.cross(r, f)
+    truth = estimate_contact(f, m, model=model)
+    e, cov = truth.edge_direction, truth.edge_cov
+    np.testing.assert_allclose(cov, cov.T, atol=1e-15)
+    assert np.trace(cov) == pytest.approx(truth.edge_std**2, rel=1e-12)
+    np.testing.assert_allclose(cov @ e, 0.0, atol=1e-12 * np.trace(cov))
+    values, axes = np.linalg.eigh(cov)
+    assert values[0] == pytest.approx(0.0, abs=1e-12 * values[2])
+    de = np.array(
+        [est.edge_direction - e for est in noisy_edges(f, m, model, 2000, 5, previous_edge=e)]
+    )
+    emp = de.T @ de / len(de)
+    for k in (1, 2):
+        ratio = axes[:, k] @ emp @ axes[:, k] / values[k]
+        assert 0.85 < ratio < 1.15, (k, ratio)
+    rho = axes[:, 1] @ emp @ axes[:, 2] / math.sqrt(values[1] * values[2])
+    assert abs(rho) < 0.1
+
+
+def test_edge_cov_is_nan_when_the_edge_is_unobservable():
+    r, n = CONTACTS["sphere_mid"]
+    radial = estimate_contact(-5.0 * n, np.cross(r, -5.0 * n))
+    assert radial.valid and radial.edge_cov.shape == (3, 3) and np.all(np.isnan(radial.edge_cov))
+    invalid = estimate_contact(np.zeros(3), np.zeros(3))
+    assert invalid.edge_cov.shape == (3, 3) and np.all(np.isnan(invalid.edge_cov))
+
+
 # --- invalid and fallback cases --------------------------------------------------------------
 
 

@@ -50,6 +50,7 @@ EDGE_STD_UNOBSERVABLE = math.pi / 2  # rad; "no information" about an undirected
 _DEFAULT_GEOMETRY = FingertipGeometry()
 _REGION_TOL = 1e-9  # m; slack on the piece boundaries (seam at z = L, rim at z = 0)
 _NAN3 = (math.nan, math.nan, math.nan)
+_NAN33 = _NAN3 * 3
 
 
 def _nan3() -> np.ndarray:
@@ -70,8 +71,13 @@ class ContactEstimate:
         tangential_moment: (3,) q_t = q - q_n (eq. 14), N m.
         edge_direction: (3,) unit edge direction e, or NaN when unobservable. See
             ``estimate_contact`` for how it relates to the paper's n x q_t and its sign.
-        edge_std: predicted 1-sigma (RMS) angle error of e, rad;
+        edge_std: predicted 1-sigma (RMS) angle error of e, rad, sqrt(trace(edge_cov));
             ``EDGE_STD_UNOBSERVABLE`` (pi/2) when e carries no information.
+        edge_cov: (3, 3) first-order covariance of the perturbation de of the unit edge e,
+            rad^2: var_in g g^T + var_out n n^T + c (g n^T + n g^T) with g = n x e, var_in
+            for e turning about n, var_out for e tilting out of the tangent plane, and c
+            their covariance (they share the turn of n, so c != 0 in general). e is in its
+            null space. NaN when e is unobservable.
         corrected_point: (3,) indentation-corrected contact point r - delta n, m; NaN when
             no skin stiffness was given or the estimate is invalid.
         indentation: modelled indentation depth delta, m; NaN when not computed.
@@ -89,6 +95,7 @@ class ContactEstimate:
     tangential_moment: np.ndarray
     edge_direction: np.ndarray
     edge_std: float
+    edge_cov: np.ndarray
     corrected_point: np.ndarray
     indentation: float
     on_surface: bool
@@ -114,6 +121,7 @@ class ContactEstimate:
             tangential_moment=_nan3(),
             edge_direction=_nan3(),
             edge_std=EDGE_STD_UNOBSERVABLE,
+            edge_cov=np.full((3, 3), np.nan),
             corrected_point=_nan3(),
             indentation=math.nan,
             on_surface=False,
@@ -384,8 +392,10 @@ def estimate_contact(
     holds n and f: a force tilted away from -n across an edge reveals the edge. Sign: if
     ``previous_edge`` is given, e is flipped to have e . previous_edge >= 0 (continuity);
     otherwise its component of largest magnitude is made positive (ties: the first).
-    ``edge_std`` is the first-order RMS angle error under isotropic Gaussian sensor noise
-    (see ``_edge_std``), about (sigma_f + sigma_m/R)/(|f| sin tilt). When it reaches
+    ``edge_cov`` is the first-order covariance of de under isotropic Gaussian sensor noise
+    (see ``_edge_noise``) and ``edge_std`` = sqrt(trace(edge_cov)) the RMS angle error, about
+    (sigma_f + sigma_m/R)/(|f| sin tilt). Most of it lies along e x f: an error in the
+    contact point turns n, and e stays perpendicular to f. When edge_std reaches
     ``EDGE_STD_UNOBSERVABLE`` (pi/2) - an untilted press - e is NaN and edge_std is pi/2.
 
     **Indentation** (DESIGN.md 2.6): with ``skin_stiffness`` given,
@@ -438,7 +448,9 @@ def estimate_contact(
         return ContactEstimate.invalid(f, contact)
     r, n, on_sphere, on_surface = contact
     q_n, q_t = _friction_moment(f, m, r, n)
-    edge, edge_std, tilt = _edge(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, prev)
+    edge, edge_std, edge_cov, tilt = _edge(
+        f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, prev
+    )
     corrected, delta = _NAN3, math.nan
     if skin_stiffness is not None:
         corrected, delta = _indentation_correction(f, r, n, k_n, geometry, contact_shape)
@@ -450,8 +462,9 @@ def estimate_contact(
         force=np.array(f),
         normal_moment=np.array(q_n),
         tangential_moment=np.array(q_t),
-        edge_direction=np.array(edge),
+        edge_direction=edge,
         edge_std=edge_std,
+        edge_cov=np.array(edge_cov).reshape(3, 3),
         corrected_point=np.array(corrected),
         indentation=delta,
         on_surface=on_surface,
@@ -593,63 +606,102 @@ def _edge(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, prev):
         prev: (3,) previous edge direction to orient e like, or None.
 
     Returns:
-        (e, edge_std, tilt): e (3,) oriented by ``orient_like``, or NaN when unobservable;
-        its RMS angle error, rad (``EDGE_STD_UNOBSERVABLE`` when unobservable); the angle
-        between f and -n, rad.
+        (e, edge_std, edge_cov, tilt): e, an array (3,) oriented by ``orient_like``; its RMS angle
+        error, rad; the (3, 3) covariance of de, rad^2, row-major as 9 floats; the angle between
+        f and -n, rad. When unobservable, e and edge_cov are NaN and edge_std is
+        ``EDGE_STD_UNOBSERVABLE``.
     """
     fn = _dot(f, n)
     ftv = (f[0] - fn * n[0], f[1] - fn * n[1], f[2] - fn * n[2])
     ft = math.sqrt(_dot(ftv, ftv))
     tilt = math.atan2(ft, -fn)
-    if ft > 1e-12 * fnorm and abs(fn) > 1e-12 * fnorm:
-        ev = _cross(n, ftv)
-        e = (ev[0] / ft, ev[1] / ft, ev[2] / ft)
-        std = _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m)
-        if std < EDGE_STD_UNOBSERVABLE:
-            return tuple(orient_like(e, [] if prev is None else [prev]).tolist()), std, tilt
-    return _NAN3, EDGE_STD_UNOBSERVABLE, tilt
-
-
-def _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m) -> float:
-    """First-order RMS angle error of e = normalise(n x f) under isotropic sensor noise.
-
-    Let g = n x e (= -f_t/|f_t|). Perturbing the wrench by (df, dm) moves r by
-    dr = a e + b g with h = dm - r x df and (i) soft: a = -h.g/f_n, b = h.e/f_n;
-    (ii) hard: a = -(f_n h.g + |f_t| h.n)/|f|^2, b = h.e/f_n. The normal turns by
-    dn.e = dr.k with k = K e (K the shape operator: I/R on the sphere, t t^T/R on the
-    cylinder, t = e_z x n), so dn.e = h.P with P = (e.k) alpha + (g.k) e/f_n, where h.alpha = a.
-    e then turns in the tangent plane by (df.e - f_n dn.e)/|f_t| and out of it by -dn.e;
-    with h.P = dm.P - df.(P x r) the two variances are
-    (sigma_f^2 |e + f_n P x r|^2 + sigma_m^2 f_n^2 |P|^2)/|f_t|^2 and
-    sigma_f^2 |P x r|^2 + sigma_m^2 |P|^2.
-    For a press on the hemisphere's top this is ~ (sigma_f + sigma_m/R)/(|f| sin tilt), the
-    DESIGN.md 2.1 estimate, with the lever |r| of the sensor origin folded in.
-    """
+    if ft <= 1e-12 * fnorm or abs(fn) <= 1e-12 * fnorm:
+        return _nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt
+    ev = _cross(n, ftv)
+    e = (ev[0] / ft, ev[1] / ft, ev[2] / ft)
     g = _cross(n, e)
+    s_ee, _, _, var_out, cov_io = _edge_noise(
+        fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m
+    )
+    var_in = s_ee / (ft * ft)
+    cov_io /= ft
+    std = math.sqrt(var_in + var_out)
+    if std >= EDGE_STD_UNOBSERVABLE:
+        return _nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt
+    # cov = var_in g g^T + var_out n n^T + cov_io (g n^T + n g^T); row i is x_i g + y_i n.
+    g0, g1, g2 = g
+    n0, n1, n2 = n
+    x0, x1, x2 = var_in * g0 + cov_io * n0, var_in * g1 + cov_io * n1, var_in * g2 + cov_io * n2
+    y0, y1, y2 = var_out * n0 + cov_io * g0, var_out * n1 + cov_io * g1, var_out * n2 + cov_io * g2
+    c01 = x0 * g1 + y0 * n1
+    c02 = x0 * g2 + y0 * n2
+    c12 = x1 * g2 + y1 * n2
+    cov = (x0 * g0 + y0 * n0, c01, c02, c01, x1 * g1 + y1 * n1, c12, c02, c12, x2 * g2 + y2 * n2)
+    return orient_like(e, [] if prev is None else [prev]), std, cov, tilt
+
+
+def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m):
+    """First-order noise of the tangential force f_t and of e = normalise(n x f).
+
+    The sensor noise (df, dm) is isotropic Gaussian, sigma_f and sigma_m per axis. Vectors are
+    taken in the right-handed basis (e, g = n x e, n), where f = (0, -|f_t|, f_n).
+
+    Perturbing the wrench moves r by dr = D h, h = dm - r x df, with (i) soft:
+    dr = (n x h)/f_n; (ii) hard: dr = (I - u n^T/(u.n)) (f x h)/|f|^2, u = f/|f| (the line
+    of action moves by (f x h)/|f|^2 and r slides along it to stay on the tangent plane).
+    Both drop terms of order torsion/(R |f|) or pitch/R. The normal turns by dn = K dr, K the
+    shape operator (I/R on the sphere, t t^T/R on the cylinder, t = e_z x n), so for a
+    tangent x, x.dn = h.P_x where, with k = K x, (i) P_x = (k x n)/f_n and
+    (ii) P_x = (k - n (f.k)/f_n) x f / |f|^2; in the basis both read
+    P_x = (k.g/f_n, -(k.e) c_1, -(k.e) c_2) with c = (1/f_n, 0) (soft) or
+    (f_n, |f_t|)/|f|^2 (hard). With h.P = dm.P - df.(P x r):
+
+    * f_t changes in the tangent plane by dw = df_t - f_n dn, so
+      dw.x = df.(x + f_n P_x x r) - f_n dm.P_x, which gives S, its 2x2 covariance in (e, g).
+    * e turns in the tangent plane (about n, along g) by de.g = dw.e/|f_t| and out of it
+      (along n) by de.n = -dn.e. The two share dn.e, so they are correlated: moment noise
+      moves only n and keeps e perpendicular to f, so it turns e along e x f.
+
+    For a press on the hemisphere's top the RMS angle error is
+    ~ (sigma_f + sigma_m/R)/(|f| sin tilt), the DESIGN.md 2.1 estimate, with the lever |r|
+    of the sensor origin folded in.
+
+    Args:
+        fn: f . n, N (non-zero); ft: |f_t|, N.
+        r: (3,) contact point, m; n, e, g: (3,) the unit basis. All sensor frame.
+        on_sphere, radius, model, sigma_f, sigma_m: see ``_edge``.
+
+    Returns:
+        (s_ee, s_eg, s_gg, var_out, cov_io_ft): S's entries, N^2; var(de.n), rad^2; and
+        |f_t| cov(de.g, de.n), N rad (var(de.g) is s_ee/|f_t|^2).
+    """
+    rb = (_dot(r, e), _dot(r, g), _dot(r, n))
     if on_sphere:
-        ek, gk = 1.0 / radius, 0.0
+        kee, keg, kgg = 1.0 / radius, 0.0, 1.0 / radius
     else:
-        t = (-n[1], n[0], 0.0)
-        te = _dot(t, e)
-        ek = te * te / radius
-        gk = te * _dot(t, g) / radius
+        te = n[0] * e[1] - n[1] * e[0]  # t . e
+        tg = n[0] * g[1] - n[1] * g[0]
+        kee, keg, kgg = te * te / radius, te * tg / radius, tg * tg / radius
     if model == "soft":
-        alpha = (-g[0] / fn, -g[1] / fn, -g[2] / fn)
+        c1, c2 = 1.0 / fn, 0.0
     else:
-        f2 = _dot(f, f)
-        alpha = (
-            -(fn * g[0] + ft * n[0]) / f2,
-            -(fn * g[1] + ft * n[1]) / f2,
-            -(fn * g[2] + ft * n[2]) / f2,
-        )
-    gkf = gk / fn
-    p = (ek * alpha[0] + gkf * e[0], ek * alpha[1] + gkf * e[1], ek * alpha[2] + gkf * e[2])
-    pxr = _cross(p, r)
-    a_g = (e[0] + fn * pxr[0], e[1] + fn * pxr[1], e[2] + fn * pxr[2])
-    p2 = _dot(p, p)
-    var_g = (sigma_f * sigma_f * _dot(a_g, a_g) + sigma_m * sigma_m * fn * fn * p2) / (ft * ft)
-    var_n = sigma_f * sigma_f * _dot(pxr, pxr) + sigma_m * sigma_m * p2
-    return math.sqrt(var_g + var_n)
+        f2 = fn * fn + ft * ft
+        c1, c2 = fn / f2, ft / f2
+    p_e = (keg / fn, -kee * c1, -kee * c2)
+    p_g = (kgg / fn, -keg * c1, -keg * c2)
+    pe_r = _cross(p_e, rb)
+    pg_r = _cross(p_g, rb)
+    a_e = (1.0 + fn * pe_r[0], fn * pe_r[1], fn * pe_r[2])
+    a_g = (fn * pg_r[0], 1.0 + fn * pg_r[1], fn * pg_r[2])
+    vf = sigma_f * sigma_f
+    vm_fn2 = sigma_m * sigma_m * fn * fn
+    pe2 = _dot(p_e, p_e)
+    s_ee = vf * _dot(a_e, a_e) + vm_fn2 * pe2
+    s_eg = vf * _dot(a_e, a_g) + vm_fn2 * _dot(p_e, p_g)
+    s_gg = vf * _dot(a_g, a_g) + vm_fn2 * _dot(p_g, p_g)
+    var_out = vf * _dot(pe_r, pe_r) + sigma_m * sigma_m * pe2
+    cov_io_ft = vf * _dot(a_e, pe_r) + sigma_m * sigma_m * fn * pe2
+    return s_ee, s_eg, s_gg, var_out, cov_io_ft
 
 
 def _indentation_correction(f, r, n, k_n, geometry, contact_shape):
