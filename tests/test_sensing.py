@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import stats
 
 from tactile_gym.sensing import (
     EDGE_STD_UNOBSERVABLE,
@@ -90,6 +91,8 @@ def test_round_trip_recovers_point_normal_and_moments(name, model):
     np.testing.assert_array_equal(est.force, f)
     assert est.tilt == pytest.approx(math.radians(20), abs=1e-9)
     assert math.isnan(est.indentation) and np.all(np.isnan(est.corrected_point))
+    if model == "hard":  # r is on the line of action
+        assert est.line_offset == pytest.approx(R * math.sin(math.radians(20)), rel=1e-9)
 
 
 def test_hard_model_keeps_the_pitch_and_edge_matches_paper_formula():
@@ -173,6 +176,7 @@ def test_tilt_across_a_known_edge_reveals_it(name, model):
     assert angle_between_lines(est.edge_direction, edge) < 1e-9
     assert np.linalg.norm(est.edge_direction) == pytest.approx(1.0)
     assert est.edge_std < math.radians(5)
+    assert est.edge_observable and est.tilt_snr > 10
 
 
 @pytest.mark.parametrize("name", CONTACTS)
@@ -183,6 +187,7 @@ def test_radial_press_gives_no_edge(name):
     assert est.valid and est.tilt == pytest.approx(0.0, abs=1e-12)
     assert np.all(np.isnan(est.edge_direction))
     assert est.edge_std >= EDGE_STD_UNOBSERVABLE
+    assert not est.edge_observable and est.line_offset == pytest.approx(0.0, abs=1e-12)
 
 
 def test_edge_sign_follows_previous_edge_else_canonical():
@@ -275,6 +280,111 @@ def test_edge_cov_is_nan_when_the_edge_is_unobservable():
     assert invalid.edge_cov.shape == (3, 3) and np.all(np.isnan(invalid.edge_cov))
 
 
+# --- edge observability ----------------------------------------------------------------------
+
+K_SNR = 3.0  # estimate_contact's default min_tilt_snr
+UNTILTED = [
+    (name, model, magnitude)
+    for name in ("sphere_top", "sphere_mid", "cylinder_mid")
+    for model in ("soft", "hard")
+    for magnitude in (1.0, 2.0, 5.0, 10.0)
+]
+
+
+@pytest.mark.parametrize(("name", "model", "magnitude"), UNTILTED)
+def test_press_through_the_centre_is_flagged(name, model, magnitude):
+    """A flat face (or any press whose line passes the centre) pushes along -n: no tilt."""
+    r, n = CONTACTS[name]
+    f = -magnitude * n
+    torsion = 2e-3 * n if model == "soft" else 0.0
+    est = estimate_contact(f, np.cross(r, f) + torsion, model=model)
+    assert est.valid and not est.edge_observable
+    assert est.tilt_snr < 1e-6 and est.line_offset < 1e-12
+    assert np.all(np.isnan(est.edge_direction)) and np.all(np.isnan(est.edge_cov))
+    assert est.edge_std == EDGE_STD_UNOBSERVABLE
+
+
+def test_noisy_presses_through_the_centre_pass_at_the_chi_square_rate():
+    """With noise an untilted press has tilt_snr^2 ~ chi2(2): it passes w.p. exp(-k^2/2).
+
+    6000 independent draws over three contacts, both models and 1-10 N: the expected count
+    is 67 (1.1 %), its binomial std 8.1; the bound is 4 std each side.
+    """
+    passed, flagged_ok, draws = 0, True, 0
+    for seed, (name, model, magnitude) in enumerate(UNTILTED):
+        r, n = CONTACTS[name]
+        f = -magnitude * n
+        for est in noisy_edges(f, np.cross(r, f), model, 250, 100 + seed):
+            draws += 1
+            if est.edge_observable:
+                passed += 1
+            else:
+                flagged_ok &= bool(np.all(np.isnan(est.edge_direction)))
+    p = math.exp(-(K_SNR**2) / 2)
+    sd = math.sqrt(draws * p * (1 - p))
+    assert abs(passed - draws * p) < 4 * sd, (passed, draws * p)
+    assert flagged_ok
+
+
+@pytest.mark.parametrize("name", ["sphere_top", "sphere_mid", "sphere_low", "cylinder_mid"])
+@pytest.mark.parametrize("model", ["soft", "hard"])
+@pytest.mark.parametrize("tilt_deg", [8.0, 11.0, 14.0])
+def test_edge_press_at_5_newtons_is_observable(name, model, tilt_deg):
+    """DESIGN.md 2.2: a truncated patch tilts a 5 N press 8-14 degrees across the edge.
+
+    The noise-free margin s0 is over 15, so the predicted false-flag rate
+    P(chi2(2, s0^2) < k^2) <= Phi(k - s0) is below 1e-35; 300 noisy draws show none.
+    """
+    r, n = CONTACTS[name]
+    f = pressing_force(n, 5.0, math.radians(tilt_deg), 0.9)
+    m = np.cross(r, f)
+    clean = estimate_contact(f, m, model=model)
+    assert clean.edge_observable and clean.tilt_snr > 15.0
+    assert stats.norm.cdf(K_SNR - clean.tilt_snr) < 1e-35
+    assert all(est.edge_observable for est in noisy_edges(f, m, model, 300, 3))
+
+
+@pytest.mark.parametrize(("name", "magnitude"), [("sphere_top", 1.0), ("cylinder_mid", 0.5)])
+def test_false_flag_rate_matches_noncentral_chi_square(name, magnitude):
+    """A weak 8-degree press (s0 ~ 3) is flagged as often as P(chi2(2, s0^2) < k^2) says."""
+    r, n = CONTACTS[name]
+    f = pressing_force(n, magnitude, math.radians(8), 0.9)
+    m = np.cross(r, f)
+    s0 = estimate_contact(f, m).tilt_snr
+    predicted = stats.ncx2.cdf(K_SNR**2, 2, s0**2)
+    assert 0.2 < predicted < 0.6 and predicted <= stats.norm.cdf(K_SNR - s0)
+    ests = noisy_edges(f, m, "soft", 2000, 9)
+    rate = np.mean([not est.edge_observable for est in ests])
+    assert abs(rate - predicted) < 4 * math.sqrt(predicted * (1 - predicted) / len(ests))
+
+
+def test_min_tilt_snr_sets_the_threshold():
+    r, n = CONTACTS["sphere_mid"]
+    f = pressing_force(n, 1.0, math.radians(8), 0.9)
+    m = np.cross(r, f)
+    snr = estimate_contact(f, m).tilt_snr
+    assert estimate_contact(f, m, min_tilt_snr=snr * 0.99).edge_observable
+    assert not estimate_contact(f, m, min_tilt_snr=snr * 1.01).edge_observable
+    with pytest.raises(ValueError, match="min_tilt_snr must be a finite number >= 0"):
+        estimate_contact(f, m, min_tilt_snr=-1.0)
+
+
+def test_line_offset_is_the_distance_of_the_line_from_the_centre():
+    """A force whose line passes d from the hemisphere's centre: line_offset = d."""
+    c = np.array([0.0, 0.0, L])
+    u = np.array([0.3, -0.2, -1.0])
+    u /= np.linalg.norm(u)
+    side = np.cross(u, [1.0, 0.0, 0.0])
+    side /= np.linalg.norm(side)
+    for d in (0.0, 1e-3, 4e-3):
+        f = 5.0 * u
+        m = np.cross(c + d * side, f)
+        for model in ("soft", "hard"):
+            est = estimate_contact(f, m, model=model)
+            assert est.line_offset == pytest.approx(d, abs=1e-12)
+            assert math.sin(est.tilt) * R == pytest.approx(d, abs=1e-9)
+
+
 # --- invalid and fallback cases --------------------------------------------------------------
 
 
@@ -285,6 +395,7 @@ def test_force_below_threshold_is_invalid():
     assert not est.valid and "below threshold" in est.reason
     assert np.all(np.isnan(est.point)) and np.all(np.isnan(est.edge_direction))
     assert est.edge_std == EDGE_STD_UNOBSERVABLE
+    assert not est.edge_observable and math.isnan(est.tilt_snr) and math.isnan(est.line_offset)
     np.testing.assert_array_equal(est.force, f)
     assert not estimate_contact(np.zeros(3), np.zeros(3), force_threshold=0.0).valid
 
@@ -363,6 +474,7 @@ def test_line_far_from_the_skin_is_invalid():
         ({"force_noise_std": float("nan")}, "force_noise_std"),
         ({"skin_stiffness": 0.0}, "skin_stiffness"),
         ({"previous_edge": [1.0, 0.0]}, "previous_edge must have shape"),
+        ({"min_tilt_snr": math.nan}, "min_tilt_snr"),
     ],
 )
 def test_bad_input_raises_value_error(kwargs, match):

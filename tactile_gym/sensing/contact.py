@@ -84,6 +84,17 @@ class ContactEstimate:
         on_surface: False when the line of action missed the skin and the surface point
             closest to it was used instead (the estimate is still valid, but flagged).
         tilt: angle between f and -n, rad; NaN when invalid.
+        edge_observable: whether e carries edge information: the tilt stands out of the
+            sensor noise by more than ``min_tilt_snr`` standard deviations (see
+            ``estimate_contact``). False when invalid.
+        tilt_snr: that margin, sqrt(f_t^T S^-1 f_t) with S the predicted covariance of the
+            tangential force f_t; 0 for an untilted force; NaN when invalid or when f is
+            tangent to the skin; inf when the noise leaves f_t exact in some direction
+            (e.g. zero sensor noise).
+        line_offset: distance of the wrench's line of action (its central axis) from the
+            centre of curvature under the contact, r - R n (the hemisphere's centre on the
+            hemisphere, the finger axis at r's height on the cylinder), m; R sin(tilt) for
+            the hard model. NaN when invalid.
     """
 
     valid: bool
@@ -100,6 +111,9 @@ class ContactEstimate:
     indentation: float
     on_surface: bool
     tilt: float
+    edge_observable: bool
+    tilt_snr: float
+    line_offset: float
 
     @classmethod
     def invalid(cls, force: np.ndarray, reason: str) -> ContactEstimate:
@@ -126,6 +140,9 @@ class ContactEstimate:
             indentation=math.nan,
             on_surface=False,
             tilt=math.nan,
+            edge_observable=False,
+            tilt_snr=math.nan,
+            line_offset=math.nan,
         )
 
 
@@ -159,7 +176,7 @@ def _dot(a, b) -> float:
 
 
 def _sphere_soft(f, u, fnorm, m, radius, length):
-    """Soft-finger solutions on the full sphere: [(n, sigma, pushes)].
+    """Soft-finger solutions on the full sphere: [(r, n, sigma, pushes)].
 
     With n = (r - c)/R and m' = m - c x f the condition m - r x f = sigma n reads
     m' = R n x f + sigma n. Split n = a u + n_perp (u = f/|f|). Along u: m'.u = sigma a.
@@ -195,7 +212,8 @@ def _sphere_soft(f, u, fnorm, m, radius, length):
         )
         nn = math.sqrt(_dot(n, n))
         n = (n[0] / nn, n[1] / nn, n[2] / nn)
-        out.append((n, sigma, a < 0.0))
+        r = (radius * n[0], radius * n[1], length + radius * n[2])
+        out.append((r, n, sigma, a < 0.0))
     return out
 
 
@@ -228,7 +246,7 @@ def _cylinder_soft(f, m, radius):
 
 
 def _sphere_hard(r0, u, radius, length):
-    """Line r0 + t u against the full sphere: [(r, n, pushes)] (entry pushes)."""
+    """Line r0 + t u against the full sphere: [(r, n, 0.0, pushes)] (entry pushes)."""
     d = (r0[0], r0[1], r0[2] - length)
     beta = _dot(d, u)
     disc = beta * beta - (_dot(d, d) - radius * radius)
@@ -239,12 +257,12 @@ def _sphere_hard(r0, u, radius, length):
     for t, pushes in ((-beta - sq, True), (-beta + sq, False)):
         r = (r0[0] + t * u[0], r0[1] + t * u[1], r0[2] + t * u[2])
         n = (r[0] / radius, r[1] / radius, (r[2] - length) / radius)
-        out.append((r, n, pushes))
+        out.append((r, n, 0.0, pushes))
     return out
 
 
 def _cylinder_hard(r0, u, radius):
-    """Line r0 + t u against the infinite cylinder: [(r, n, pushes)] (entry pushes)."""
+    """Line r0 + t u against the infinite cylinder: [(r, n, 0.0, pushes)] (entry pushes)."""
     a = u[0] * u[0] + u[1] * u[1]
     if a < 1e-24:
         return []
@@ -257,7 +275,7 @@ def _cylinder_hard(r0, u, radius):
     for t, pushes in ((-(b + sq) / a, True), ((sq - b) / a, False)):
         r = (r0[0] + t * u[0], r0[1] + t * u[1], r0[2] + t * u[2])
         rho = math.hypot(r[0], r[1])
-        out.append((r, (r[0] / rho, r[1] / rho, 0.0), pushes))
+        out.append((r, (r[0] / rho, r[1] / rho, 0.0), 0.0, pushes))
     return out
 
 
@@ -360,6 +378,7 @@ def estimate_contact(
     skin_stiffness: float | None = None,
     contact_shape: str = "edge",
     previous_edge=None,
+    min_tilt_snr: float = 3.0,
 ) -> ContactEstimate:
     """Contact point, normal, friction moment and edge direction from one wrench.
 
@@ -395,8 +414,21 @@ def estimate_contact(
     ``edge_cov`` is the first-order covariance of de under isotropic Gaussian sensor noise
     (see ``_edge_noise``) and ``edge_std`` = sqrt(trace(edge_cov)) the RMS angle error, about
     (sigma_f + sigma_m/R)/(|f| sin tilt). Most of it lies along e x f: an error in the
-    contact point turns n, and e stays perpendicular to f. When edge_std reaches
-    ``EDGE_STD_UNOBSERVABLE`` (pi/2) - an untilted press - e is NaN and edge_std is pi/2.
+    contact point turns n, and e stays perpendicular to f.
+
+    **Observability** (DESIGN.md 2.1-2.2). e carries edge information only when f is tilted
+    from -n; a press whose line of action passes through the centre of curvature (a flat
+    face, or any radial press) has no tilt, and its e is noise. The edge counts as
+    observable when the tangential force f_t stands out of its predicted noise,
+    ``tilt_snr`` = sqrt(f_t^T S^-1 f_t) > ``min_tilt_snr`` (S the first-order 2x2
+    covariance of f_t in the tangent plane), and edge_std < pi/2. An untilted press then
+    passes with probability exp(-min_tilt_snr^2 / 2), 1.1 % at the default 3 (chi-square,
+    2 degrees of freedom); one whose noise-free tilt_snr is s0 is flagged with probability
+    P(chi2(2, s0^2) < min_tilt_snr^2) <= Phi(min_tilt_snr - s0) (noncentral chi-square).
+    When it is not observable, ``edge_observable`` is False, e and edge_cov are NaN and
+    edge_std is ``EDGE_STD_UNOBSERVABLE``. A shear on a flat face tilts f as an edge does,
+    so this test cannot tell the two apart. ``line_offset`` says how far the line of action
+    passes from the centre of curvature.
 
     **Indentation** (DESIGN.md 2.6): with ``skin_stiffness`` given,
     delta = ``indentation_depth(-f . n, skin_stiffness, R, contact_shape)`` capped at the skin
@@ -415,6 +447,9 @@ def estimate_contact(
         skin_stiffness: Winkler modulus k_n, N/m^3, to model the indentation; None skips it.
         contact_shape: object shape for the indentation model, one of ``CONTACT_SHAPES``.
         previous_edge: (3,) last edge direction, sensor frame, to fix the sign of e.
+        min_tilt_snr: the least ``tilt_snr`` at which the edge counts as observable, in
+            standard deviations; >= 0. An untilted press passes with probability
+            exp(-min_tilt_snr^2 / 2).
 
     Returns:
         A ContactEstimate, valid or not (never raises for physically odd wrenches).
@@ -431,6 +466,7 @@ def estimate_contact(
     threshold = _nonneg(force_threshold, "force_threshold", "N")
     sigma_f = _nonneg(force_noise_std, "force_noise_std", "N")
     sigma_m = _nonneg(moment_noise_std, "moment_noise_std", "N m")
+    min_snr = _nonneg(min_tilt_snr, "min_tilt_snr", "(standard deviations)")
     if skin_stiffness is not None:
         k_n = float(skin_stiffness)
         if not math.isfinite(k_n) or k_n <= 0.0:
@@ -447,9 +483,9 @@ def estimate_contact(
     if isinstance(contact, str):
         return ContactEstimate.invalid(f, contact)
     r, n, on_sphere, on_surface = contact
-    q_n, q_t = _friction_moment(f, m, r, n)
-    edge, edge_std, edge_cov, tilt = _edge(
-        f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, prev
+    q, q_n, q_t = _friction_moment(f, m, r, n)
+    edge, edge_std, edge_cov, tilt, snr, observable = _edge(
+        f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, min_snr, prev
     )
     corrected, delta = _NAN3, math.nan
     if skin_stiffness is not None:
@@ -469,6 +505,9 @@ def estimate_contact(
         indentation=delta,
         on_surface=on_surface,
         tilt=tilt,
+        edge_observable=observable,
+        tilt_snr=snr,
+        line_offset=_line_offset(f, fnorm, q, n, radius),
     )
 
 
@@ -533,46 +572,37 @@ def _skin_solutions(f, m, fnorm, u, r0, model, radius, length):
         their piece (sensor noise near the rim); pulls says whether a pulling solution lies
         inside its piece.
     """
-    best = None
-    outside = []
-    pulls = False
     if model == "soft":
-        for n, sigma, pushes in _sphere_soft(f, u, fnorm, m, radius, length):
-            r = (radius * n[0], radius * n[1], length + radius * n[2])
-            if n[2] * radius >= -_REGION_TOL:
-                if pushes:
-                    best = (abs(sigma), r, n, True)
-                else:
-                    pulls = True
-            elif pushes:
-                outside.append(r)
-        for r, n, sigma, pushes in _cylinder_soft(f, m, radius):
-            if -_REGION_TOL <= r[2] <= length + _REGION_TOL:
-                if pushes:
-                    if best is None or abs(sigma) < best[0]:
-                        best = (abs(sigma), r, n, False)
-                else:
-                    pulls = True
-            elif pushes:
-                outside.append(r)
-        return best, outside, pulls
-    for r, n, pushes in _sphere_hard(r0, u, radius, length):
-        if r[2] >= length - _REGION_TOL:
+        sphere = _sphere_soft(f, u, fnorm, m, radius, length)
+    else:
+        sphere = _sphere_hard(r0, u, radius, length)
+    best, outside, pulls = _classify(sphere, True, length, None, [], False)
+    if model == "soft":
+        return _classify(_cylinder_soft(f, m, radius), False, length, best, outside, pulls)
+    if best is None:  # the hard model's line enters the sphere first where it can
+        return _classify(_cylinder_hard(r0, u, radius), False, length, best, outside, pulls)
+    return best, outside, pulls
+
+
+def _classify(solutions, on_sphere, length, best, outside, pulls):
+    """Fold one skin piece's solutions [(r, n, torsion, pushes)] into (best, outside, pulls).
+
+    A solution is inside its piece when z >= L (hemisphere) or 0 <= z <= L (cylinder), with
+    ``_REGION_TOL`` of slack. A pushing one inside replaces ``best`` when its |torsion| is
+    smaller; see ``_skin_solutions`` for the three results.
+    """
+    for r, n, torsion, pushes in solutions:
+        if on_sphere:
+            inside = r[2] >= length - _REGION_TOL
+        else:
+            inside = -_REGION_TOL <= r[2] <= length + _REGION_TOL
+        if not inside:
             if pushes:
-                best = (0.0, r, n, True)
-            else:
-                pulls = True
-        elif pushes:
-            outside.append(r)
-    if best is None:
-        for r, n, pushes in _cylinder_hard(r0, u, radius):
-            if -_REGION_TOL <= r[2] <= length + _REGION_TOL:
-                if pushes:
-                    best = (0.0, r, n, False)
-                else:
-                    pulls = True
-            elif pushes:
                 outside.append(r)
+        elif not pushes:
+            pulls = True
+        elif best is None or abs(torsion) < best[0]:
+            best = (abs(torsion), r, n, on_sphere)
     return best, outside, pulls
 
 
@@ -584,17 +614,25 @@ def _friction_moment(f, m, r, n):
         r: (3,) contact point, m; n: (3,) outward unit normal there. All sensor frame.
 
     Returns:
-        (q_n, q_t): the normal part (q . n) n and the tangential part q - q_n, N m.
+        (q, q_n, q_t): q, its normal part (q . n) n and its tangential part q - q_n, N m.
     """
     rxf = _cross(r, f)
     q = (m[0] - rxf[0], m[1] - rxf[1], m[2] - rxf[2])
     qn = _dot(q, n)
     q_n = (qn * n[0], qn * n[1], qn * n[2])
-    return q_n, (q[0] - q_n[0], q[1] - q_n[1], q[2] - q_n[2])
+    return q, q_n, (q[0] - q_n[0], q[1] - q_n[1], q[2] - q_n[2])
 
 
-def _edge(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, prev):
-    """Edge direction e = normalise(n x f), its predicted error and the force's tilt.
+def _edge(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, min_snr, prev):
+    """Edge direction e = normalise(n x f), its predicted error, and whether it is observable.
+
+    The edge is observable when the force's tilt from -n stands out of the sensor noise,
+    ``tilt_snr`` = sqrt(f_t^T S^-1 f_t) > ``min_snr`` (S the predicted covariance of the
+    tangential force f_t, see ``_edge_noise``), and the first-order edge error stays below
+    ``EDGE_STD_UNOBSERVABLE``. An untilted press has f_t = 0, so its e would be noise: then
+    f_t ~ N(0, S), tilt_snr^2 is chi-square with 2 degrees of freedom, and the press passes
+    with probability exp(-min_snr^2 / 2) (1.1 % at 3). A press whose noise-free tilt_snr is
+    s0 is flagged with probability P(chi2(2, s0^2) < min_snr^2) <= Phi(min_snr - s0).
 
     Args:
         f: (3,) force, N; fnorm: |f|, N.
@@ -603,31 +641,38 @@ def _edge(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, prev):
         radius: outer skin radius R, m.
         model: one of ``CONTACT_MODELS``.
         sigma_f, sigma_m: sensor noise per axis, N and N m.
+        min_snr: the least tilt_snr at which e counts as observable.
         prev: (3,) previous edge direction to orient e like, or None.
 
     Returns:
-        (e, edge_std, edge_cov, tilt): e, an array (3,) oriented by ``orient_like``; its RMS angle
-        error, rad; the (3, 3) covariance of de, rad^2, row-major as 9 floats; the angle between
-        f and -n, rad. When unobservable, e and edge_cov are NaN and edge_std is
-        ``EDGE_STD_UNOBSERVABLE``.
+        (e, edge_std, edge_cov, tilt, tilt_snr, observable): e, an array (3,) oriented by
+        ``orient_like``; its RMS angle error, rad; the (3, 3) covariance of de, rad^2,
+        row-major as 9 floats; the angle between f and -n, rad; tilt_snr (0 for an untilted
+        force, NaN for a force tangent to the skin, where the noise model breaks down, inf
+        without sensor noise); observable. When not observable, e and edge_cov are NaN and
+        edge_std is ``EDGE_STD_UNOBSERVABLE``.
     """
     fn = _dot(f, n)
     ftv = (f[0] - fn * n[0], f[1] - fn * n[1], f[2] - fn * n[2])
     ft = math.sqrt(_dot(ftv, ftv))
     tilt = math.atan2(ft, -fn)
     if ft <= 1e-12 * fnorm or abs(fn) <= 1e-12 * fnorm:
-        return _nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt
+        snr = 0.0 if ft <= 1e-12 * fnorm else math.nan
+        return _nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt, snr, False
     ev = _cross(n, ftv)
     e = (ev[0] / ft, ev[1] / ft, ev[2] / ft)
-    g = _cross(n, e)
-    s_ee, _, _, var_out, cov_io = _edge_noise(
+    g = (-ftv[0] / ft, -ftv[1] / ft, -ftv[2] / ft)  # n x e
+    s_ee, s_eg, s_gg, var_out, cov_io = _edge_noise(
         fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m
     )
+    det = s_ee * s_gg - s_eg * s_eg
+    # f_t = -|f_t| g, so f_t^T S^-1 f_t = |f_t|^2 s_ee / det.
+    snr = ft * math.sqrt(s_ee / det) if det > 0.0 else math.inf
     var_in = s_ee / (ft * ft)
     cov_io /= ft
     std = math.sqrt(var_in + var_out)
-    if std >= EDGE_STD_UNOBSERVABLE:
-        return _nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt
+    if not (snr > min_snr and std < EDGE_STD_UNOBSERVABLE):
+        return _nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt, snr, False
     # cov = var_in g g^T + var_out n n^T + cov_io (g n^T + n g^T); row i is x_i g + y_i n.
     g0, g1, g2 = g
     n0, n1, n2 = n
@@ -637,7 +682,7 @@ def _edge(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, prev):
     c02 = x0 * g2 + y0 * n2
     c12 = x1 * g2 + y1 * n2
     cov = (x0 * g0 + y0 * n0, c01, c02, c01, x1 * g1 + y1 * n1, c12, c02, c12, x2 * g2 + y2 * n2)
-    return orient_like(e, [] if prev is None else [prev]), std, cov, tilt
+    return orient_like(e, [] if prev is None else [prev]), std, cov, tilt, snr, True
 
 
 def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m):
@@ -675,7 +720,7 @@ def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m):
         (s_ee, s_eg, s_gg, var_out, cov_io_ft): S's entries, N^2; var(de.n), rad^2; and
         |f_t| cov(de.g, de.n), N rad (var(de.g) is s_ee/|f_t|^2).
     """
-    rb = (_dot(r, e), _dot(r, g), _dot(r, n))
+    r0, r1, r2 = _dot(r, e), _dot(r, g), _dot(r, n)
     if on_sphere:
         kee, keg, kgg = 1.0 / radius, 0.0, 1.0 / radius
     else:
@@ -687,21 +732,41 @@ def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m):
     else:
         f2 = fn * fn + ft * ft
         c1, c2 = fn / f2, ft / f2
-    p_e = (keg / fn, -kee * c1, -kee * c2)
-    p_g = (kgg / fn, -keg * c1, -keg * c2)
-    pe_r = _cross(p_e, rb)
-    pg_r = _cross(p_g, rb)
-    a_e = (1.0 + fn * pe_r[0], fn * pe_r[1], fn * pe_r[2])
-    a_g = (fn * pg_r[0], 1.0 + fn * pg_r[1], fn * pg_r[2])
+    # Scalar code: this runs on every env step. P_e = (pe0, pe1, pe2), its P_e x r =
+    # (qe0, qe1, qe2); a_x = x + f_n P_x x r; likewise for g.
+    pe0, pe1, pe2 = keg / fn, -kee * c1, -kee * c2
+    pg0, pg1, pg2 = kgg / fn, -keg * c1, -keg * c2
+    qe0, qe1, qe2 = pe1 * r2 - pe2 * r1, pe2 * r0 - pe0 * r2, pe0 * r1 - pe1 * r0
+    qg0, qg1, qg2 = pg1 * r2 - pg2 * r1, pg2 * r0 - pg0 * r2, pg0 * r1 - pg1 * r0
+    ae0, ae1, ae2 = 1.0 + fn * qe0, fn * qe1, fn * qe2
+    ag0, ag1, ag2 = fn * qg0, 1.0 + fn * qg1, fn * qg2
     vf = sigma_f * sigma_f
-    vm_fn2 = sigma_m * sigma_m * fn * fn
-    pe2 = _dot(p_e, p_e)
-    s_ee = vf * _dot(a_e, a_e) + vm_fn2 * pe2
-    s_eg = vf * _dot(a_e, a_g) + vm_fn2 * _dot(p_e, p_g)
-    s_gg = vf * _dot(a_g, a_g) + vm_fn2 * _dot(p_g, p_g)
-    var_out = vf * _dot(pe_r, pe_r) + sigma_m * sigma_m * pe2
-    cov_io_ft = vf * _dot(a_e, pe_r) + sigma_m * sigma_m * fn * pe2
+    vm = sigma_m * sigma_m
+    vm_fn2 = vm * fn * fn
+    pe_sq = pe0 * pe0 + pe1 * pe1 + pe2 * pe2
+    s_ee = vf * (ae0 * ae0 + ae1 * ae1 + ae2 * ae2) + vm_fn2 * pe_sq
+    s_eg = vf * (ae0 * ag0 + ae1 * ag1 + ae2 * ag2) + vm_fn2 * (pe0 * pg0 + pe1 * pg1 + pe2 * pg2)
+    s_gg = vf * (ag0 * ag0 + ag1 * ag1 + ag2 * ag2) + vm_fn2 * (pg0 * pg0 + pg1 * pg1 + pg2 * pg2)
+    var_out = vf * (qe0 * qe0 + qe1 * qe1 + qe2 * qe2) + vm * pe_sq
+    cov_io_ft = vf * (ae0 * qe0 + ae1 * qe1 + ae2 * qe2) + vm * fn * pe_sq
     return s_ee, s_eg, s_gg, var_out, cov_io_ft
+
+
+def _line_offset(f, fnorm, q, n, radius):
+    """Distance of the wrench's central axis from c = r - R n, m (see ``ContactEstimate``).
+
+    The moment about c is m_c = q + R n x f (q = m - r x f), and the axis passes c at
+    |f x m_c|/|f|^2, with f x (n x f) = |f|^2 n - (f . n) f.
+    """
+    fq = _cross(f, q)
+    f2 = fnorm * fnorm
+    fn = _dot(f, n)
+    d = (
+        fq[0] + radius * (f2 * n[0] - fn * f[0]),
+        fq[1] + radius * (f2 * n[1] - fn * f[1]),
+        fq[2] + radius * (f2 * n[2] - fn * f[2]),
+    )
+    return math.sqrt(_dot(d, d)) / f2
 
 
 def _indentation_correction(f, r, n, k_n, geometry, contact_shape):
