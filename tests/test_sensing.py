@@ -369,6 +369,47 @@ def test_min_tilt_snr_sets_the_threshold():
         estimate_contact(f, m, min_tilt_snr=-1.0)
 
 
+def test_without_sensor_noise_any_tilt_is_observable():
+    r, n = CONTACTS["cylinder_mid"]
+    exact = {"force_noise_std": 0.0, "moment_noise_std": 0.0}
+    f = pressing_force(n, 5.0, math.radians(1), 0.9)
+    est = estimate_contact(f, np.cross(r, f), **exact)
+    assert est.edge_observable and est.tilt_snr == math.inf and est.edge_std == 0.0
+    np.testing.assert_array_equal(est.edge_cov, np.zeros((3, 3)))
+    flat = estimate_contact(-5.0 * n, np.cross(r, -5.0 * n), **exact)
+    assert not flat.edge_observable and flat.tilt_snr < 1e-6
+
+
+wrench_parts = st.floats(-1.0, 1.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    force=st.tuples(wrench_parts, wrench_parts, wrench_parts),
+    moment=st.tuples(wrench_parts, wrench_parts, wrench_parts),
+    scale=st.sampled_from([0.3, 5.0, 50.0]),
+    model=st.sampled_from(["soft", "hard"]),
+)
+def test_any_wrench_gives_a_consistent_flagged_estimate(force, moment, scale, model):
+    """Arbitrary wrenches never raise, and NaNs appear only where the flags say so."""
+    f = scale * np.array(force)
+    m = scale * np.array(moment) * 0.02  # lines within ~2 cm of the origin: half hit the skin
+    est = estimate_contact(f, m, model=model)
+    e_ok = bool(np.all(np.isfinite(est.edge_direction)))
+    assert e_ok == est.edge_observable == bool(np.all(np.isfinite(est.edge_cov)))
+    assert (est.edge_std < EDGE_STD_UNOBSERVABLE) == est.edge_observable
+    if est.edge_observable:
+        assert est.tilt_snr > K_SNR
+        assert np.trace(est.edge_cov) == pytest.approx(est.edge_std**2, rel=1e-9)
+        assert np.linalg.eigvalsh(est.edge_cov).min() > -1e-12 * est.edge_std**2
+    if est.valid:
+        assert np.all(np.isfinite(est.point)) and math.isfinite(est.tilt)
+        assert math.isfinite(est.line_offset) and est.line_offset >= 0.0
+        assert not math.isnan(est.tilt_snr) or abs(est.tilt - math.pi / 2) < 1e-6
+    else:
+        assert est.reason and not est.edge_observable
+
+
 def test_line_offset_is_the_distance_of_the_line_from_the_centre():
     """A force whose line passes d from the hemisphere's centre: line_offset = d."""
     c = np.array([0.0, 0.0, L])
