@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import math
 import subprocess
 import sys
@@ -10,11 +11,13 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import stats
 
 from tactile_gym.sensing import (
     EDGE_STD_UNOBSERVABLE,
     ContactEstimate,
     FingertipGeometry,
+    SensorConfig,
     edge_from_trace,
     estimate_contact,
     indentation_depth,
@@ -24,8 +27,8 @@ GEOM = FingertipGeometry()
 R = GEOM.outer_radius
 L = GEOM.cylinder_length
 K_N = 8.8e7  # N/m^3, DESIGN.md 2.4
-SIGMA_F = 0.02  # N
-SIGMA_M = 5e-4  # N m
+SIGMA_F = SensorConfig().force_noise_std  # N
+SIGMA_M = SensorConfig().moment_noise_std  # N m
 
 
 def sphere_contact(polar: float, azimuth: float) -> tuple[np.ndarray, np.ndarray]:
@@ -88,6 +91,8 @@ def test_round_trip_recovers_point_normal_and_moments(name, model):
     np.testing.assert_array_equal(est.force, f)
     assert est.tilt == pytest.approx(math.radians(20), abs=1e-9)
     assert math.isnan(est.indentation) and np.all(np.isnan(est.corrected_point))
+    if model == "hard":  # r is on the line of action
+        assert est.line_offset == pytest.approx(R * math.sin(math.radians(20)), rel=1e-9)
 
 
 def test_hard_model_keeps_the_pitch_and_edge_matches_paper_formula():
@@ -171,6 +176,7 @@ def test_tilt_across_a_known_edge_reveals_it(name, model):
     assert angle_between_lines(est.edge_direction, edge) < 1e-9
     assert np.linalg.norm(est.edge_direction) == pytest.approx(1.0)
     assert est.edge_std < math.radians(5)
+    assert est.edge_observable and est.tilt_snr > 10
 
 
 @pytest.mark.parametrize("name", CONTACTS)
@@ -181,6 +187,7 @@ def test_radial_press_gives_no_edge(name):
     assert est.valid and est.tilt == pytest.approx(0.0, abs=1e-12)
     assert np.all(np.isnan(est.edge_direction))
     assert est.edge_std >= EDGE_STD_UNOBSERVABLE
+    assert not est.edge_observable and est.line_offset == pytest.approx(0.0, abs=1e-12)
 
 
 def test_edge_sign_follows_previous_edge_else_canonical():
@@ -224,6 +231,201 @@ def test_edge_std_is_calibrated_against_sensor_noise(model, name, tilt_deg):
         assert rule / 2 < truth.edge_std
 
 
+def noisy_edges(f, m, model, draws, seed, **kwargs):
+    """Estimates from ``draws`` noisy readings of the wrench (f, m), sensor noise SIGMA_F/M."""
+    rng = np.random.default_rng(seed)
+    df = rng.normal(0.0, SIGMA_F, (draws, 3))
+    dm = rng.normal(0.0, SIGMA_M, (draws, 3))
+    return [estimate_contact(f + a, m + b, model=model, **kwargs) for a, b in zip(df, dm)]
+
+
+@pytest.mark.parametrize(
+    ("name", "model", "tilt_deg"),
+    [("sphere_top", "soft", 10.0), ("sphere_mid", "hard", 12.0), ("cylinder_mid", "soft", 15.0)],
+)
+def test_edge_cov_is_calibrated_in_both_principal_directions(name, model, tilt_deg):
+    """Empirical covariance of de against edge_cov, along its two principal axes.
+
+    de's in-plane and out-of-plane parts share the turn of the normal, so they are strongly
+    correlated (0.65-0.96 here) and the principal axes are not g and n; checking the
+    variance along each predicted axis and the correlation across them tests the whole
+    matrix. 2000 draws give a sampling error of 3 % on each variance.
+    """
+    r, n = CONTACTS[name]
+    f = pressing_force(n, 5.0, math.radians(tilt_deg), 0.9)
+    m = np.cross(r, f)
+    truth = estimate_contact(f, m, model=model)
+    e, cov = truth.edge_direction, truth.edge_cov
+    np.testing.assert_allclose(cov, cov.T, atol=1e-15)
+    assert np.trace(cov) == pytest.approx(truth.edge_std**2, rel=1e-12)
+    np.testing.assert_allclose(cov @ e, 0.0, atol=1e-12 * np.trace(cov))
+    values, axes = np.linalg.eigh(cov)
+    assert values[0] == pytest.approx(0.0, abs=1e-12 * values[2])
+    de = np.array(
+        [est.edge_direction - e for est in noisy_edges(f, m, model, 2000, 5, previous_edge=e)]
+    )
+    emp = de.T @ de / len(de)
+    for k in (1, 2):
+        ratio = axes[:, k] @ emp @ axes[:, k] / values[k]
+        assert 0.85 < ratio < 1.15, (k, ratio)
+    rho = axes[:, 1] @ emp @ axes[:, 2] / math.sqrt(values[1] * values[2])
+    assert abs(rho) < 0.1
+
+
+def test_edge_cov_is_nan_when_the_edge_is_unobservable():
+    r, n = CONTACTS["sphere_mid"]
+    radial = estimate_contact(-5.0 * n, np.cross(r, -5.0 * n))
+    assert radial.valid and radial.edge_cov.shape == (3, 3) and np.all(np.isnan(radial.edge_cov))
+    invalid = estimate_contact(np.zeros(3), np.zeros(3))
+    assert invalid.edge_cov.shape == (3, 3) and np.all(np.isnan(invalid.edge_cov))
+
+
+# --- edge observability ----------------------------------------------------------------------
+
+K_SNR = 3.0  # estimate_contact's default min_tilt_snr
+UNTILTED = [
+    (name, model, magnitude)
+    for name in ("sphere_top", "sphere_mid", "cylinder_mid")
+    for model in ("soft", "hard")
+    for magnitude in (1.0, 2.0, 5.0, 10.0)
+]
+
+
+@pytest.mark.parametrize(("name", "model", "magnitude"), UNTILTED)
+def test_press_through_the_centre_is_flagged(name, model, magnitude):
+    """A flat face (or any press whose line passes the centre) pushes along -n: no tilt."""
+    r, n = CONTACTS[name]
+    f = -magnitude * n
+    torsion = 2e-3 * n if model == "soft" else 0.0
+    est = estimate_contact(f, np.cross(r, f) + torsion, model=model)
+    assert est.valid and not est.edge_observable
+    assert est.tilt_snr < 1e-6 and est.line_offset < 1e-12
+    assert np.all(np.isnan(est.edge_direction)) and np.all(np.isnan(est.edge_cov))
+    assert est.edge_std == EDGE_STD_UNOBSERVABLE
+
+
+def test_noisy_presses_through_the_centre_pass_at_the_chi_square_rate():
+    """With noise an untilted press has tilt_snr^2 ~ chi2(2): it passes w.p. exp(-k^2/2).
+
+    6000 independent draws over three contacts, both models and 1-10 N: the expected count
+    is 67 (1.1 %), its binomial std 8.1; the bound is 4 std each side.
+    """
+    passed, flagged_ok, draws = 0, True, 0
+    for seed, (name, model, magnitude) in enumerate(UNTILTED):
+        r, n = CONTACTS[name]
+        f = -magnitude * n
+        for est in noisy_edges(f, np.cross(r, f), model, 250, 100 + seed):
+            draws += 1
+            if est.edge_observable:
+                passed += 1
+            else:
+                flagged_ok &= bool(np.all(np.isnan(est.edge_direction)))
+    p = math.exp(-(K_SNR**2) / 2)
+    sd = math.sqrt(draws * p * (1 - p))
+    assert abs(passed - draws * p) < 4 * sd, (passed, draws * p)
+    assert flagged_ok
+
+
+@pytest.mark.parametrize("name", ["sphere_top", "sphere_mid", "sphere_low", "cylinder_mid"])
+@pytest.mark.parametrize("model", ["soft", "hard"])
+@pytest.mark.parametrize("tilt_deg", [8.0, 11.0, 14.0])
+def test_edge_press_at_5_newtons_is_observable(name, model, tilt_deg):
+    """DESIGN.md 2.2: a truncated patch tilts a 5 N press 8-14 degrees across the edge.
+
+    The noise-free margin s0 is over 15, so the predicted false-flag rate
+    P(chi2(2, s0^2) < k^2) <= Phi(k - s0) is below 1e-35; 300 noisy draws show none.
+    """
+    r, n = CONTACTS[name]
+    f = pressing_force(n, 5.0, math.radians(tilt_deg), 0.9)
+    m = np.cross(r, f)
+    clean = estimate_contact(f, m, model=model)
+    assert clean.edge_observable and clean.tilt_snr > 15.0
+    assert stats.norm.cdf(K_SNR - clean.tilt_snr) < 1e-35
+    assert all(est.edge_observable for est in noisy_edges(f, m, model, 300, 3))
+
+
+@pytest.mark.parametrize(("name", "magnitude"), [("sphere_top", 1.0), ("cylinder_mid", 0.5)])
+def test_false_flag_rate_matches_noncentral_chi_square(name, magnitude):
+    """A weak 8-degree press (s0 ~ 3) is flagged as often as P(chi2(2, s0^2) < k^2) says."""
+    r, n = CONTACTS[name]
+    f = pressing_force(n, magnitude, math.radians(8), 0.9)
+    m = np.cross(r, f)
+    s0 = estimate_contact(f, m).tilt_snr
+    predicted = stats.ncx2.cdf(K_SNR**2, 2, s0**2)
+    assert 0.2 < predicted < 0.6 and predicted <= stats.norm.cdf(K_SNR - s0)
+    ests = noisy_edges(f, m, "soft", 2000, 9)
+    rate = np.mean([not est.edge_observable for est in ests])
+    assert abs(rate - predicted) < 4 * math.sqrt(predicted * (1 - predicted) / len(ests))
+
+
+def test_min_tilt_snr_sets_the_threshold():
+    r, n = CONTACTS["sphere_mid"]
+    f = pressing_force(n, 1.0, math.radians(8), 0.9)
+    m = np.cross(r, f)
+    snr = estimate_contact(f, m).tilt_snr
+    assert estimate_contact(f, m, min_tilt_snr=snr * 0.99).edge_observable
+    assert not estimate_contact(f, m, min_tilt_snr=snr * 1.01).edge_observable
+    with pytest.raises(ValueError, match="min_tilt_snr must be a finite number >= 0"):
+        estimate_contact(f, m, min_tilt_snr=-1.0)
+
+
+def test_without_sensor_noise_any_tilt_is_observable():
+    r, n = CONTACTS["cylinder_mid"]
+    exact = {"force_noise_std": 0.0, "moment_noise_std": 0.0}
+    f = pressing_force(n, 5.0, math.radians(1), 0.9)
+    est = estimate_contact(f, np.cross(r, f), **exact)
+    assert est.edge_observable and est.tilt_snr == math.inf and est.edge_std == 0.0
+    np.testing.assert_array_equal(est.edge_cov, np.zeros((3, 3)))
+    flat = estimate_contact(-5.0 * n, np.cross(r, -5.0 * n), **exact)
+    assert not flat.edge_observable and flat.tilt_snr < 1e-6
+
+
+wrench_parts = st.floats(-1.0, 1.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    force=st.tuples(wrench_parts, wrench_parts, wrench_parts),
+    moment=st.tuples(wrench_parts, wrench_parts, wrench_parts),
+    scale=st.sampled_from([0.3, 5.0, 50.0]),
+    model=st.sampled_from(["soft", "hard"]),
+)
+def test_any_wrench_gives_a_consistent_flagged_estimate(force, moment, scale, model):
+    """Arbitrary wrenches never raise, and NaNs appear only where the flags say so."""
+    f = scale * np.array(force)
+    m = scale * np.array(moment) * 0.02  # lines within ~2 cm of the origin: half hit the skin
+    est = estimate_contact(f, m, model=model)
+    e_ok = bool(np.all(np.isfinite(est.edge_direction)))
+    assert e_ok == est.edge_observable == bool(np.all(np.isfinite(est.edge_cov)))
+    assert (est.edge_std < EDGE_STD_UNOBSERVABLE) == est.edge_observable
+    if est.edge_observable:
+        assert est.tilt_snr > K_SNR
+        assert np.trace(est.edge_cov) == pytest.approx(est.edge_std**2, rel=1e-9)
+        assert np.linalg.eigvalsh(est.edge_cov).min() > -1e-12 * est.edge_std**2
+    if est.valid:
+        assert np.all(np.isfinite(est.point)) and math.isfinite(est.tilt)
+        assert math.isfinite(est.line_offset) and est.line_offset >= 0.0
+        assert not math.isnan(est.tilt_snr) or abs(est.tilt - math.pi / 2) < 1e-6
+    else:
+        assert est.reason and not est.edge_observable
+
+
+def test_line_offset_is_the_distance_of_the_line_from_the_centre():
+    """A force whose line passes d from the hemisphere's centre: line_offset = d."""
+    c = np.array([0.0, 0.0, L])
+    u = np.array([0.3, -0.2, -1.0])
+    u /= np.linalg.norm(u)
+    side = np.cross(u, [1.0, 0.0, 0.0])
+    side /= np.linalg.norm(side)
+    for d in (0.0, 1e-3, 4e-3):
+        f = 5.0 * u
+        m = np.cross(c + d * side, f)
+        for model in ("soft", "hard"):
+            est = estimate_contact(f, m, model=model)
+            assert est.line_offset == pytest.approx(d, abs=1e-12)
+            assert math.sin(est.tilt) * R == pytest.approx(d, abs=1e-9)
+
+
 # --- invalid and fallback cases --------------------------------------------------------------
 
 
@@ -234,6 +436,7 @@ def test_force_below_threshold_is_invalid():
     assert not est.valid and "below threshold" in est.reason
     assert np.all(np.isnan(est.point)) and np.all(np.isnan(est.edge_direction))
     assert est.edge_std == EDGE_STD_UNOBSERVABLE
+    assert not est.edge_observable and math.isnan(est.tilt_snr) and math.isnan(est.line_offset)
     np.testing.assert_array_equal(est.force, f)
     assert not estimate_contact(np.zeros(3), np.zeros(3), force_threshold=0.0).valid
 
@@ -312,6 +515,7 @@ def test_line_far_from_the_skin_is_invalid():
         ({"force_noise_std": float("nan")}, "force_noise_std"),
         ({"skin_stiffness": 0.0}, "skin_stiffness"),
         ({"previous_edge": [1.0, 0.0]}, "previous_edge must have shape"),
+        ({"min_tilt_snr": math.nan}, "min_tilt_snr"),
     ],
 )
 def test_bad_input_raises_value_error(kwargs, match):
@@ -414,6 +618,30 @@ def test_edge_from_exact_trace_and_degenerate_traces():
         edge_from_trace(np.array([[0.0, 0.0, np.nan], [1.0, 0.0, 0.0]]))
     with pytest.raises(ValueError, match="point_std"):
         edge_from_trace(pts, point_std=-1.0)
+
+
+# --- sensor config ---------------------------------------------------------------------------
+
+
+def test_estimate_contact_noise_defaults_are_the_sensor_configs():
+    params = inspect.signature(estimate_contact).parameters
+    cfg = SensorConfig()
+    assert params["force_noise_std"].default == cfg.force_noise_std
+    assert params["moment_noise_std"].default == cfg.moment_noise_std
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"force_noise_std": -0.1}, r"force_noise_std must be a finite number >= 0 N, got -0.1"),
+        ({"moment_noise_std": math.inf}, r"moment_noise_std must be a finite number >= 0 N m"),
+        ({"force_bias": (0.0, 1.0)}, "force_bias must be 3 finite numbers"),
+        ({"moment_bias": (0.0, math.nan, 0.0)}, "moment_bias must be 3 finite numbers"),
+    ],
+)
+def test_sensor_config_validation(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        SensorConfig(**kwargs)
 
 
 # --- packaging -------------------------------------------------------------------------------

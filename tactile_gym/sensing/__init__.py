@@ -1,4 +1,4 @@
-"""Intrinsic contact sensing for a soft fingertip on a 6-axis force/torque sensor.
+"""Intrinsic contact sensing for a soft fingertip and its 6-axis force/torque sensor.
 
 NumPy only: this package must import without pybullet, so real robots can reuse it.
 """
@@ -13,6 +13,7 @@ from tactile_gym.sensing.contact import (
     indentation_depth,
 )
 from tactile_gym.sensing.geometry import FingertipGeometry, SurfaceSamples
+from tactile_gym.sensing.sensor import SensorConfig
 
 __all__ = [
     "CONTACT_MODELS",
@@ -20,6 +21,7 @@ __all__ = [
     "EDGE_STD_UNOBSERVABLE",
     "ContactEstimate",
     "FingertipGeometry",
+    "SensorConfig",
     "SurfaceSamples",
     "edge_from_trace",
     "estimate_contact",

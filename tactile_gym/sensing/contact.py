@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.sensing.geometry import FingertipGeometry
+from tactile_gym.sensing.sensor import SensorConfig
 from tactile_gym.spatial import orient_like
 
 __all__ = [
@@ -49,6 +50,7 @@ EDGE_STD_UNOBSERVABLE = math.pi / 2  # rad; "no information" about an undirected
 _DEFAULT_GEOMETRY = FingertipGeometry()
 _REGION_TOL = 1e-9  # m; slack on the piece boundaries (seam at z = L, rim at z = 0)
 _NAN3 = (math.nan, math.nan, math.nan)
+_NAN33 = _NAN3 * 3
 
 
 def _nan3() -> np.ndarray:
@@ -69,14 +71,30 @@ class ContactEstimate:
         tangential_moment: (3,) q_t = q - q_n (eq. 14), N m.
         edge_direction: (3,) unit edge direction e, or NaN when unobservable. See
             ``estimate_contact`` for how it relates to the paper's n x q_t and its sign.
-        edge_std: predicted 1-sigma (RMS) angle error of e, rad;
+        edge_std: predicted 1-sigma (RMS) angle error of e, rad, sqrt(trace(edge_cov));
             ``EDGE_STD_UNOBSERVABLE`` (pi/2) when e carries no information.
+        edge_cov: (3, 3) first-order covariance of the perturbation de of the unit edge e,
+            rad^2: var_in g g^T + var_out n n^T + c (g n^T + n g^T) with g = n x e, var_in
+            for e turning about n, var_out for e tilting out of the tangent plane, and c
+            their covariance (they share the turn of n, so c != 0 in general). e is in its
+            null space. NaN when e is unobservable.
         corrected_point: (3,) indentation-corrected contact point r - delta n, m; NaN when
             no skin stiffness was given or the estimate is invalid.
         indentation: modelled indentation depth delta, m; NaN when not computed.
         on_surface: False when the line of action missed the skin and the surface point
             closest to it was used instead (the estimate is still valid, but flagged).
         tilt: angle between f and -n, rad; NaN when invalid.
+        edge_observable: whether e carries edge information: the tilt stands out of the
+            sensor noise by more than ``min_tilt_snr`` standard deviations (see
+            ``estimate_contact``). False when invalid.
+        tilt_snr: that margin, sqrt(f_t^T S^-1 f_t) with S the predicted covariance of the
+            tangential force f_t; 0 for an untilted force; NaN when invalid or when f is
+            tangent to the skin; inf when the noise leaves f_t exact in some direction
+            (e.g. zero sensor noise).
+        line_offset: distance of the wrench's line of action (its central axis) from the
+            centre of curvature under the contact, r - R n (the hemisphere's centre on the
+            hemisphere, the finger axis at r's height on the cylinder), m; R sin(tilt) for
+            the hard model. NaN when invalid.
     """
 
     valid: bool
@@ -88,10 +106,14 @@ class ContactEstimate:
     tangential_moment: np.ndarray
     edge_direction: np.ndarray
     edge_std: float
+    edge_cov: np.ndarray
     corrected_point: np.ndarray
     indentation: float
     on_surface: bool
     tilt: float
+    edge_observable: bool
+    tilt_snr: float
+    line_offset: float
 
     @classmethod
     def invalid(cls, force: np.ndarray, reason: str) -> ContactEstimate:
@@ -113,10 +135,14 @@ class ContactEstimate:
             tangential_moment=_nan3(),
             edge_direction=_nan3(),
             edge_std=EDGE_STD_UNOBSERVABLE,
+            edge_cov=np.full((3, 3), np.nan),
             corrected_point=_nan3(),
             indentation=math.nan,
             on_surface=False,
             tilt=math.nan,
+            edge_observable=False,
+            tilt_snr=math.nan,
+            line_offset=math.nan,
         )
 
 
@@ -150,7 +176,7 @@ def _dot(a, b) -> float:
 
 
 def _sphere_soft(f, u, fnorm, m, radius, length):
-    """Soft-finger solutions on the full sphere: [(n, sigma, pushes)].
+    """Soft-finger solutions on the full sphere: [(r, n, sigma, pushes)].
 
     With n = (r - c)/R and m' = m - c x f the condition m - r x f = sigma n reads
     m' = R n x f + sigma n. Split n = a u + n_perp (u = f/|f|). Along u: m'.u = sigma a.
@@ -186,7 +212,8 @@ def _sphere_soft(f, u, fnorm, m, radius, length):
         )
         nn = math.sqrt(_dot(n, n))
         n = (n[0] / nn, n[1] / nn, n[2] / nn)
-        out.append((n, sigma, a < 0.0))
+        r = (radius * n[0], radius * n[1], length + radius * n[2])
+        out.append((r, n, sigma, a < 0.0))
     return out
 
 
@@ -219,7 +246,7 @@ def _cylinder_soft(f, m, radius):
 
 
 def _sphere_hard(r0, u, radius, length):
-    """Line r0 + t u against the full sphere: [(r, n, pushes)] (entry pushes)."""
+    """Line r0 + t u against the full sphere: [(r, n, 0.0, pushes)] (entry pushes)."""
     d = (r0[0], r0[1], r0[2] - length)
     beta = _dot(d, u)
     disc = beta * beta - (_dot(d, d) - radius * radius)
@@ -230,12 +257,12 @@ def _sphere_hard(r0, u, radius, length):
     for t, pushes in ((-beta - sq, True), (-beta + sq, False)):
         r = (r0[0] + t * u[0], r0[1] + t * u[1], r0[2] + t * u[2])
         n = (r[0] / radius, r[1] / radius, (r[2] - length) / radius)
-        out.append((r, n, pushes))
+        out.append((r, n, 0.0, pushes))
     return out
 
 
 def _cylinder_hard(r0, u, radius):
-    """Line r0 + t u against the infinite cylinder: [(r, n, pushes)] (entry pushes)."""
+    """Line r0 + t u against the infinite cylinder: [(r, n, 0.0, pushes)] (entry pushes)."""
     a = u[0] * u[0] + u[1] * u[1]
     if a < 1e-24:
         return []
@@ -248,7 +275,7 @@ def _cylinder_hard(r0, u, radius):
     for t, pushes in ((-(b + sq) / a, True), ((sq - b) / a, False)):
         r = (r0[0] + t * u[0], r0[1] + t * u[1], r0[2] + t * u[2])
         rho = math.hypot(r[0], r[1])
-        out.append((r, (r[0] / rho, r[1] / rho, 0.0), pushes))
+        out.append((r, (r[0] / rho, r[1] / rho, 0.0), 0.0, pushes))
     return out
 
 
@@ -339,48 +366,6 @@ def _depth(load: float, k: float, rad: float, contact_shape: str) -> float:
     return (load / (k * (16.0 / 15.0) * math.sqrt(2.0 * rad))) ** 0.4
 
 
-def _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m) -> float:
-    """First-order RMS angle error of e = normalise(n x f) under isotropic sensor noise.
-
-    Let g = n x e (= -f_t/|f_t|). Perturbing the wrench by (df, dm) moves r by
-    dr = a e + b g with h = dm - r x df and (i) soft: a = -h.g/f_n, b = h.e/f_n;
-    (ii) hard: a = -(f_n h.g + |f_t| h.n)/|f|^2, b = h.e/f_n. The normal turns by
-    dn.e = dr.k with k = K e (K the shape operator: I/R on the sphere, t t^T/R on the
-    cylinder, t = e_z x n), so dn.e = h.P with P = (e.k) alpha + (g.k) e/f_n, where h.alpha = a.
-    e then turns in the tangent plane by (df.e - f_n dn.e)/|f_t| and out of it by -dn.e;
-    with h.P = dm.P - df.(P x r) the two variances are
-    (sigma_f^2 |e + f_n P x r|^2 + sigma_m^2 f_n^2 |P|^2)/|f_t|^2 and
-    sigma_f^2 |P x r|^2 + sigma_m^2 |P|^2.
-    For a press on the hemisphere's top this is ~ (sigma_f + sigma_m/R)/(|f| sin tilt), the
-    DESIGN.md 2.1 estimate, with the lever |r| of the sensor origin folded in.
-    """
-    g = _cross(n, e)
-    if on_sphere:
-        ek, gk = 1.0 / radius, 0.0
-    else:
-        t = (-n[1], n[0], 0.0)
-        te = _dot(t, e)
-        ek = te * te / radius
-        gk = te * _dot(t, g) / radius
-    if model == "soft":
-        alpha = (-g[0] / fn, -g[1] / fn, -g[2] / fn)
-    else:
-        f2 = _dot(f, f)
-        alpha = (
-            -(fn * g[0] + ft * n[0]) / f2,
-            -(fn * g[1] + ft * n[1]) / f2,
-            -(fn * g[2] + ft * n[2]) / f2,
-        )
-    gkf = gk / fn
-    p = (ek * alpha[0] + gkf * e[0], ek * alpha[1] + gkf * e[1], ek * alpha[2] + gkf * e[2])
-    pxr = _cross(p, r)
-    a_g = (e[0] + fn * pxr[0], e[1] + fn * pxr[1], e[2] + fn * pxr[2])
-    p2 = _dot(p, p)
-    var_g = (sigma_f * sigma_f * _dot(a_g, a_g) + sigma_m * sigma_m * fn * fn * p2) / (ft * ft)
-    var_n = sigma_f * sigma_f * _dot(pxr, pxr) + sigma_m * sigma_m * p2
-    return math.sqrt(var_g + var_n)
-
-
 def estimate_contact(
     force,
     moment,
@@ -388,11 +373,12 @@ def estimate_contact(
     *,
     model: str = "soft",
     force_threshold: float = 0.2,
-    force_noise_std: float = 0.02,
-    moment_noise_std: float = 5e-4,
+    force_noise_std: float = SensorConfig.force_noise_std,
+    moment_noise_std: float = SensorConfig.moment_noise_std,
     skin_stiffness: float | None = None,
     contact_shape: str = "edge",
     previous_edge=None,
+    min_tilt_snr: float = 3.0,
 ) -> ContactEstimate:
     """Contact point, normal, friction moment and edge direction from one wrench.
 
@@ -425,9 +411,24 @@ def estimate_contact(
     holds n and f: a force tilted away from -n across an edge reveals the edge. Sign: if
     ``previous_edge`` is given, e is flipped to have e . previous_edge >= 0 (continuity);
     otherwise its component of largest magnitude is made positive (ties: the first).
-    ``edge_std`` is the first-order RMS angle error under isotropic Gaussian sensor noise
-    (see ``_edge_std``), about (sigma_f + sigma_m/R)/(|f| sin tilt). When it reaches
-    ``EDGE_STD_UNOBSERVABLE`` (pi/2) - an untilted press - e is NaN and edge_std is pi/2.
+    ``edge_cov`` is the first-order covariance of de under isotropic Gaussian sensor noise
+    (see ``_edge_noise``) and ``edge_std`` = sqrt(trace(edge_cov)) the RMS angle error, about
+    (sigma_f + sigma_m/R)/(|f| sin tilt). Most of it lies along e x f: an error in the
+    contact point turns n, and e stays perpendicular to f.
+
+    **Observability** (DESIGN.md 2.1-2.2). e carries edge information only when f is tilted
+    from -n; a press whose line of action passes through the centre of curvature (a flat
+    face, or any radial press) has no tilt, and its e is noise. The edge counts as
+    observable when the tangential force f_t stands out of its predicted noise,
+    ``tilt_snr`` = sqrt(f_t^T S^-1 f_t) > ``min_tilt_snr`` (S the first-order 2x2
+    covariance of f_t in the tangent plane), and edge_std < pi/2. An untilted press then
+    passes with probability exp(-min_tilt_snr^2 / 2), 1.1 % at the default 3 (chi-square,
+    2 degrees of freedom); one whose noise-free tilt_snr is s0 is flagged with probability
+    P(chi2(2, s0^2) < min_tilt_snr^2) <= Phi(min_tilt_snr - s0) (noncentral chi-square).
+    When it is not observable, ``edge_observable`` is False, e and edge_cov are NaN and
+    edge_std is ``EDGE_STD_UNOBSERVABLE``. A shear on a flat face tilts f as an edge does,
+    so this test cannot tell the two apart. ``line_offset`` says how far the line of action
+    passes from the centre of curvature.
 
     **Indentation** (DESIGN.md 2.6): with ``skin_stiffness`` given,
     delta = ``indentation_depth(-f . n, skin_stiffness, R, contact_shape)`` capped at the skin
@@ -440,11 +441,15 @@ def estimate_contact(
         geometry: the fingertip.
         model: one of ``CONTACT_MODELS``.
         force_threshold: below this |f|, N, there is no contact.
-        force_noise_std: sensor force noise per axis, N (for edge_std and the miss tolerance).
-        moment_noise_std: sensor moment noise per axis, N m.
+        force_noise_std: sensor force noise per axis, N (for edge_std and the miss tolerance);
+            defaults to ``SensorConfig``'s.
+        moment_noise_std: sensor moment noise per axis, N m; defaults to ``SensorConfig``'s.
         skin_stiffness: Winkler modulus k_n, N/m^3, to model the indentation; None skips it.
         contact_shape: object shape for the indentation model, one of ``CONTACT_SHAPES``.
         previous_edge: (3,) last edge direction, sensor frame, to fix the sign of e.
+        min_tilt_snr: the least ``tilt_snr`` at which the edge counts as observable, in
+            standard deviations; >= 0. An untilted press passes with probability
+            exp(-min_tilt_snr^2 / 2).
 
     Returns:
         A ContactEstimate, valid or not (never raises for physically odd wrenches).
@@ -461,6 +466,7 @@ def estimate_contact(
     threshold = _nonneg(force_threshold, "force_threshold", "N")
     sigma_f = _nonneg(force_noise_std, "force_noise_std", "N")
     sigma_m = _nonneg(moment_noise_std, "moment_noise_std", "N m")
+    min_snr = _nonneg(min_tilt_snr, "min_tilt_snr", "(standard deviations)")
     if skin_stiffness is not None:
         k_n = float(skin_stiffness)
         if not math.isfinite(k_n) or k_n <= 0.0:
@@ -473,106 +479,17 @@ def estimate_contact(
     if fnorm < threshold or fnorm == 0.0:
         return ContactEstimate.invalid(f, f"force below threshold ({fnorm:.4g} N < {threshold} N)")
     radius = geometry.outer_radius
-    length = geometry.cylinder_length
-    u = (f[0] / fnorm, f[1] / fnorm, f[2] / fnorm)
-    r0 = _cross(f, m)
-    r0 = (r0[0] / (fnorm * fnorm), r0[1] / (fnorm * fnorm), r0[2] / (fnorm * fnorm))
-
-    # Classify each piece's solutions: pushing and inside the piece (the answer), pushing
-    # but just outside it (sensor noise near the rim), or pulling and inside it.
-    best = None  # (|sigma|, r, n, on_sphere)
-    outside = []  # pushing solutions outside their piece
-    pulls = False
-    if model == "soft":
-        for n, sigma, pushes in _sphere_soft(f, u, fnorm, m, radius, length):
-            r = (radius * n[0], radius * n[1], length + radius * n[2])
-            if n[2] * radius >= -_REGION_TOL:
-                if pushes:
-                    best = (abs(sigma), r, n, True)
-                else:
-                    pulls = True
-            elif pushes:
-                outside.append(r)
-        for r, n, sigma, pushes in _cylinder_soft(f, m, radius):
-            if -_REGION_TOL <= r[2] <= length + _REGION_TOL:
-                if pushes:
-                    if best is None or abs(sigma) < best[0]:
-                        best = (abs(sigma), r, n, False)
-                else:
-                    pulls = True
-            elif pushes:
-                outside.append(r)
-    else:
-        for r, n, pushes in _sphere_hard(r0, u, radius, length):
-            if r[2] >= length - _REGION_TOL:
-                if pushes:
-                    best = (0.0, r, n, True)
-                else:
-                    pulls = True
-            elif pushes:
-                outside.append(r)
-        if best is None:
-            for r, n, pushes in _cylinder_hard(r0, u, radius):
-                if -_REGION_TOL <= r[2] <= length + _REGION_TOL:
-                    if pushes:
-                        best = (0.0, r, n, False)
-                    else:
-                        pulls = True
-                elif pushes:
-                    outside.append(r)
-
-    on_surface = True
-    if best is not None:
-        _, r, n, on_sphere = best
-    else:
-        # Fallbacks: a pushing solution just off the skin, moved onto it; or, when the line
-        # of action touches no skin at all, the skin point closest to it. A pulling solution
-        # on the skin beats a pushing one farther off than the noise allows.
-        fallbacks = [_project_to_skin(p, radius, length) for p in outside]
-        if not pulls:
-            fallbacks.append(_closest_to_line(r0, u, radius, length))
-        tol = 3.0 * (sigma_m + (length + radius) * sigma_f) / fnorm
-        r, n, dist = min(fallbacks, key=lambda c: c[2])
-        if dist > tol:
-            if pulls:
-                return ContactEstimate.invalid(f, "force pulls out of the skin (f . n > 0)")
-            return ContactEstimate.invalid(
-                f, f"line of action misses surface by {dist:.3g} m (tolerance {tol:.3g} m)"
-            )
-        on_surface = False
-        on_sphere = r[2] >= length
-
-    # Friction moment, eq. 12-14.
-    rxf = _cross(r, f)
-    q = (m[0] - rxf[0], m[1] - rxf[1], m[2] - rxf[2])
-    qn = _dot(q, n)
-    q_n = (qn * n[0], qn * n[1], qn * n[2])
-    q_t = (q[0] - q_n[0], q[1] - q_n[1], q[2] - q_n[2])
-
-    fn = _dot(f, n)
-    ftv = (f[0] - fn * n[0], f[1] - fn * n[1], f[2] - fn * n[2])
-    ft = math.sqrt(_dot(ftv, ftv))
-    tilt = math.atan2(ft, -fn)
-
-    edge = _NAN3
-    edge_std = EDGE_STD_UNOBSERVABLE
-    if ft > 1e-12 * fnorm and abs(fn) > 1e-12 * fnorm:
-        ev = _cross(n, ftv)
-        e = (ev[0] / ft, ev[1] / ft, ev[2] / ft)
-        std = _edge_std(f, fn, ft, n, e, r, on_sphere, radius, model, sigma_f, sigma_m)
-        if std < EDGE_STD_UNOBSERVABLE:
-            edge_std = std
-            edge = tuple(orient_like(e, [] if prev is None else [prev]).tolist())
-
-    corrected = _NAN3
-    delta = math.nan
+    contact = _contact_point(f, m, fnorm, model, radius, geometry.cylinder_length, sigma_f, sigma_m)
+    if isinstance(contact, str):
+        return ContactEstimate.invalid(f, contact)
+    r, n, on_sphere, on_surface = contact
+    q, q_n, q_t = _friction_moment(f, m, r, n)
+    edge, edge_std, edge_cov, tilt, snr, observable = _edge(
+        f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, min_snr, prev
+    )
+    corrected, delta = _NAN3, math.nan
     if skin_stiffness is not None:
-        delta = min(
-            _depth(max(-fn, 0.0), k_n, radius, contact_shape),
-            geometry.skin_thickness,
-        )
-        corrected = (r[0] - delta * n[0], r[1] - delta * n[1], r[2] - delta * n[2])
-
+        corrected, delta = _indentation_correction(f, r, n, k_n, geometry, contact_shape)
     return ContactEstimate(
         valid=True,
         reason="",
@@ -581,13 +498,297 @@ def estimate_contact(
         force=np.array(f),
         normal_moment=np.array(q_n),
         tangential_moment=np.array(q_t),
-        edge_direction=np.array(edge),
+        edge_direction=edge,
         edge_std=edge_std,
+        edge_cov=np.array(edge_cov).reshape(3, 3),
         corrected_point=np.array(corrected),
         indentation=delta,
         on_surface=on_surface,
         tilt=tilt,
+        edge_observable=observable,
+        tilt_snr=snr,
+        line_offset=_line_offset(f, fnorm, q, n, radius),
     )
+
+
+def _contact_point(f, m, fnorm, model, radius, length, sigma_f, sigma_m):
+    """Bicchi's contact point on the skin, with the fallbacks for a line that misses it.
+
+    The candidates are the closed-form solutions on each piece of the skin (see
+    ``estimate_contact``): the pushing one inside its piece wins. Failing that, the nearest
+    of the pushing solutions just outside their piece (moved onto the skin) and, when no
+    pulling solution lies on the skin, the skin point closest to the line of action, if it
+    is within the noise tolerance 3 (sigma_m + (L + R) sigma_f)/|f|.
+
+    Args:
+        f: (3,) force, sensor frame, N.
+        m: (3,) moment about the sensor origin, sensor frame, N m.
+        fnorm: |f|, N; > 0.
+        model: one of ``CONTACT_MODELS``.
+        radius: outer skin radius R, m.
+        length: cylinder length L (hemisphere centre height), m.
+        sigma_f: force noise per axis, N.
+        sigma_m: moment noise per axis, N m.
+
+    Returns:
+        (r, n, on_sphere, on_surface): the contact point (3,) and outward normal (3,) as
+        tuples, whether r is on the hemisphere, and False for a fallback point; or, when no
+        contact explains the wrench, the reason as a string.
+    """
+    u = (f[0] / fnorm, f[1] / fnorm, f[2] / fnorm)
+    r0 = _cross(f, m)
+    r0 = (r0[0] / (fnorm * fnorm), r0[1] / (fnorm * fnorm), r0[2] / (fnorm * fnorm))
+    best, outside, pulls = _skin_solutions(f, m, fnorm, u, r0, model, radius, length)
+    if best is not None:
+        return best[1], best[2], best[3], True
+    # Fallbacks: a pushing solution just off the skin, moved onto it; or, when the line of
+    # action touches no skin at all, the skin point closest to it. A pulling solution on
+    # the skin beats a pushing one farther off than the noise allows.
+    fallbacks = [_project_to_skin(p, radius, length) for p in outside]
+    if not pulls:
+        fallbacks.append(_closest_to_line(r0, u, radius, length))
+    tol = 3.0 * (sigma_m + (length + radius) * sigma_f) / fnorm
+    r, n, dist = min(fallbacks, key=lambda c: c[2])
+    if dist > tol:
+        if pulls:
+            return "force pulls out of the skin (f . n > 0)"
+        return f"line of action misses surface by {dist:.3g} m (tolerance {tol:.3g} m)"
+    return r, n, r[2] >= length, False
+
+
+def _skin_solutions(f, m, fnorm, u, r0, model, radius, length):
+    """Classify each skin piece's solutions for the contact point.
+
+    Args:
+        f, m, fnorm: the wrench and |f| (see ``_contact_point``).
+        u: (3,) f / |f|.
+        r0: (3,) point of the line of action closest to the sensor origin, f x m / |f|^2, m.
+        model, radius, length: see ``_contact_point``.
+
+    Returns:
+        (best, outside, pulls): best is (|torsion|, r, n, on_sphere) of the pushing solution
+        inside its piece (soft model: the one with the smaller torsion |q . n| if both
+        pieces give one), or None; outside lists the pushing solutions that lie outside
+        their piece (sensor noise near the rim); pulls says whether a pulling solution lies
+        inside its piece.
+    """
+    if model == "soft":
+        sphere = _sphere_soft(f, u, fnorm, m, radius, length)
+    else:
+        sphere = _sphere_hard(r0, u, radius, length)
+    best, outside, pulls = _classify(sphere, True, length, None, [], False)
+    if model == "soft":
+        return _classify(_cylinder_soft(f, m, radius), False, length, best, outside, pulls)
+    if best is None:  # the hard model's line enters the sphere first where it can
+        return _classify(_cylinder_hard(r0, u, radius), False, length, best, outside, pulls)
+    return best, outside, pulls
+
+
+def _classify(solutions, on_sphere, length, best, outside, pulls):
+    """Fold one skin piece's solutions [(r, n, torsion, pushes)] into (best, outside, pulls).
+
+    A solution is inside its piece when z >= L (hemisphere) or 0 <= z <= L (cylinder), with
+    ``_REGION_TOL`` of slack. A pushing one inside replaces ``best`` when its |torsion| is
+    smaller; see ``_skin_solutions`` for the three results.
+    """
+    for r, n, torsion, pushes in solutions:
+        if on_sphere:
+            inside = r[2] >= length - _REGION_TOL
+        else:
+            inside = -_REGION_TOL <= r[2] <= length + _REGION_TOL
+        if not inside:
+            if pushes:
+                outside.append(r)
+        elif not pushes:
+            pulls = True
+        elif best is None or abs(torsion) < best[0]:
+            best = (abs(torsion), r, n, on_sphere)
+    return best, outside, pulls
+
+
+def _friction_moment(f, m, r, n):
+    """The friction moment q = m - r x f (eq. 12) split along the normal (eq. 13-14).
+
+    Args:
+        f: (3,) force, N; m: (3,) moment about the sensor origin, N m.
+        r: (3,) contact point, m; n: (3,) outward unit normal there. All sensor frame.
+
+    Returns:
+        (q, q_n, q_t): q, its normal part (q . n) n and its tangential part q - q_n, N m.
+    """
+    rxf = _cross(r, f)
+    q = (m[0] - rxf[0], m[1] - rxf[1], m[2] - rxf[2])
+    qn = _dot(q, n)
+    q_n = (qn * n[0], qn * n[1], qn * n[2])
+    return q, q_n, (q[0] - q_n[0], q[1] - q_n[1], q[2] - q_n[2])
+
+
+def _edge(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, min_snr, prev):
+    """Edge direction e = normalise(n x f), its predicted error, and whether it is observable.
+
+    The edge is observable when the force's tilt from -n stands out of the sensor noise,
+    ``tilt_snr`` = sqrt(f_t^T S^-1 f_t) > ``min_snr`` (S the predicted covariance of the
+    tangential force f_t, see ``_edge_noise``), and the first-order edge error stays below
+    ``EDGE_STD_UNOBSERVABLE``. An untilted press has f_t = 0, so its e would be noise: then
+    f_t ~ N(0, S), tilt_snr^2 is chi-square with 2 degrees of freedom, and the press passes
+    with probability exp(-min_snr^2 / 2) (1.1 % at 3). A press whose noise-free tilt_snr is
+    s0 is flagged with probability P(chi2(2, s0^2) < min_snr^2) <= Phi(min_snr - s0).
+
+    Args:
+        f: (3,) force, N; fnorm: |f|, N.
+        r: (3,) contact point, m; n: (3,) outward unit normal there. All sensor frame.
+        on_sphere: whether r is on the hemisphere (else on the cylinder side).
+        radius: outer skin radius R, m.
+        model: one of ``CONTACT_MODELS``.
+        sigma_f, sigma_m: sensor noise per axis, N and N m.
+        min_snr: the least tilt_snr at which e counts as observable.
+        prev: (3,) previous edge direction to orient e like, or None.
+
+    Returns:
+        (e, edge_std, edge_cov, tilt, tilt_snr, observable): e, an array (3,) oriented by
+        ``orient_like``; its RMS angle error, rad; the (3, 3) covariance of de, rad^2,
+        row-major as 9 floats; the angle between f and -n, rad; tilt_snr (0 for an untilted
+        force, NaN for a force tangent to the skin, where the noise model breaks down, inf
+        without sensor noise); observable. When not observable, e and edge_cov are NaN and
+        edge_std is ``EDGE_STD_UNOBSERVABLE``.
+    """
+    fn = _dot(f, n)
+    ftv = (f[0] - fn * n[0], f[1] - fn * n[1], f[2] - fn * n[2])
+    ft = math.sqrt(_dot(ftv, ftv))
+    tilt = math.atan2(ft, -fn)
+    if ft <= 1e-12 * fnorm or abs(fn) <= 1e-12 * fnorm:
+        snr = 0.0 if ft <= 1e-12 * fnorm else math.nan
+        return _nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt, snr, False
+    ev = _cross(n, ftv)
+    e = (ev[0] / ft, ev[1] / ft, ev[2] / ft)
+    g = (-ftv[0] / ft, -ftv[1] / ft, -ftv[2] / ft)  # n x e
+    s_ee, s_eg, s_gg, var_out, cov_io = _edge_noise(
+        fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m
+    )
+    det = s_ee * s_gg - s_eg * s_eg
+    # f_t = -|f_t| g, so f_t^T S^-1 f_t = |f_t|^2 s_ee / det.
+    snr = ft * math.sqrt(s_ee / det) if det > 0.0 else math.inf
+    var_in = s_ee / (ft * ft)
+    cov_io /= ft
+    std = math.sqrt(var_in + var_out)
+    if not (snr > min_snr and std < EDGE_STD_UNOBSERVABLE):
+        return _nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt, snr, False
+    # cov = var_in g g^T + var_out n n^T + cov_io (g n^T + n g^T); row i is x_i g + y_i n.
+    g0, g1, g2 = g
+    n0, n1, n2 = n
+    x0, x1, x2 = var_in * g0 + cov_io * n0, var_in * g1 + cov_io * n1, var_in * g2 + cov_io * n2
+    y0, y1, y2 = var_out * n0 + cov_io * g0, var_out * n1 + cov_io * g1, var_out * n2 + cov_io * g2
+    c01 = x0 * g1 + y0 * n1
+    c02 = x0 * g2 + y0 * n2
+    c12 = x1 * g2 + y1 * n2
+    cov = (x0 * g0 + y0 * n0, c01, c02, c01, x1 * g1 + y1 * n1, c12, c02, c12, x2 * g2 + y2 * n2)
+    return orient_like(e, [] if prev is None else [prev]), std, cov, tilt, snr, True
+
+
+def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m):
+    """First-order noise of the tangential force f_t and of e = normalise(n x f).
+
+    The sensor noise (df, dm) is isotropic Gaussian, sigma_f and sigma_m per axis. Vectors are
+    taken in the right-handed basis (e, g = n x e, n), where f = (0, -|f_t|, f_n).
+
+    Perturbing the wrench moves r by dr = D h, h = dm - r x df, with (i) soft:
+    dr = (n x h)/f_n; (ii) hard: dr = (I - u n^T/(u.n)) (f x h)/|f|^2, u = f/|f| (the line
+    of action moves by (f x h)/|f|^2 and r slides along it to stay on the tangent plane).
+    Both drop terms of order torsion/(R |f|) or pitch/R. The normal turns by dn = K dr, K the
+    shape operator (I/R on the sphere, t t^T/R on the cylinder, t = e_z x n), so for a
+    tangent x, x.dn = h.P_x where, with k = K x, (i) P_x = (k x n)/f_n and
+    (ii) P_x = (k - n (f.k)/f_n) x f / |f|^2; in the basis both read
+    P_x = (k.g/f_n, -(k.e) c_1, -(k.e) c_2) with c = (1/f_n, 0) (soft) or
+    (f_n, |f_t|)/|f|^2 (hard). With h.P = dm.P - df.(P x r):
+
+    * f_t changes in the tangent plane by dw = df_t - f_n dn, so
+      dw.x = df.(x + f_n P_x x r) - f_n dm.P_x, which gives S, its 2x2 covariance in (e, g).
+    * e turns in the tangent plane (about n, along g) by de.g = dw.e/|f_t| and out of it
+      (along n) by de.n = -dn.e. The two share dn.e, so they are correlated: moment noise
+      moves only n and keeps e perpendicular to f, so it turns e along e x f.
+
+    For a press on the hemisphere's top the RMS angle error is
+    ~ (sigma_f + sigma_m/R)/(|f| sin tilt), the DESIGN.md 2.1 estimate, with the lever |r|
+    of the sensor origin folded in.
+
+    Args:
+        fn: f . n, N (non-zero); ft: |f_t|, N.
+        r: (3,) contact point, m; n, e, g: (3,) the unit basis. All sensor frame.
+        on_sphere, radius, model, sigma_f, sigma_m: see ``_edge``.
+
+    Returns:
+        (s_ee, s_eg, s_gg, var_out, cov_io_ft): S's entries, N^2; var(de.n), rad^2; and
+        |f_t| cov(de.g, de.n), N rad (var(de.g) is s_ee/|f_t|^2).
+    """
+    r0, r1, r2 = _dot(r, e), _dot(r, g), _dot(r, n)
+    if on_sphere:
+        kee, keg, kgg = 1.0 / radius, 0.0, 1.0 / radius
+    else:
+        te = n[0] * e[1] - n[1] * e[0]  # t . e
+        tg = n[0] * g[1] - n[1] * g[0]
+        kee, keg, kgg = te * te / radius, te * tg / radius, tg * tg / radius
+    if model == "soft":
+        c1, c2 = 1.0 / fn, 0.0
+    else:
+        f2 = fn * fn + ft * ft
+        c1, c2 = fn / f2, ft / f2
+    # Scalar code: this runs on every env step. P_e = (pe0, pe1, pe2), its P_e x r =
+    # (qe0, qe1, qe2); a_x = x + f_n P_x x r; likewise for g.
+    pe0, pe1, pe2 = keg / fn, -kee * c1, -kee * c2
+    pg0, pg1, pg2 = kgg / fn, -keg * c1, -keg * c2
+    qe0, qe1, qe2 = pe1 * r2 - pe2 * r1, pe2 * r0 - pe0 * r2, pe0 * r1 - pe1 * r0
+    qg0, qg1, qg2 = pg1 * r2 - pg2 * r1, pg2 * r0 - pg0 * r2, pg0 * r1 - pg1 * r0
+    ae0, ae1, ae2 = 1.0 + fn * qe0, fn * qe1, fn * qe2
+    ag0, ag1, ag2 = fn * qg0, 1.0 + fn * qg1, fn * qg2
+    vf = sigma_f * sigma_f
+    vm = sigma_m * sigma_m
+    vm_fn2 = vm * fn * fn
+    pe_sq = pe0 * pe0 + pe1 * pe1 + pe2 * pe2
+    s_ee = vf * (ae0 * ae0 + ae1 * ae1 + ae2 * ae2) + vm_fn2 * pe_sq
+    s_eg = vf * (ae0 * ag0 + ae1 * ag1 + ae2 * ag2) + vm_fn2 * (pe0 * pg0 + pe1 * pg1 + pe2 * pg2)
+    s_gg = vf * (ag0 * ag0 + ag1 * ag1 + ag2 * ag2) + vm_fn2 * (pg0 * pg0 + pg1 * pg1 + pg2 * pg2)
+    var_out = vf * (qe0 * qe0 + qe1 * qe1 + qe2 * qe2) + vm * pe_sq
+    cov_io_ft = vf * (ae0 * qe0 + ae1 * qe1 + ae2 * qe2) + vm * fn * pe_sq
+    return s_ee, s_eg, s_gg, var_out, cov_io_ft
+
+
+def _line_offset(f, fnorm, q, n, radius):
+    """Distance of the wrench's central axis from c = r - R n, m (see ``ContactEstimate``).
+
+    The moment about c is m_c = q + R n x f (q = m - r x f), and the axis passes c at
+    |f x m_c|/|f|^2, with f x (n x f) = |f|^2 n - (f . n) f.
+    """
+    fq = _cross(f, q)
+    f2 = fnorm * fnorm
+    fn = _dot(f, n)
+    d = (
+        fq[0] + radius * (f2 * n[0] - fn * f[0]),
+        fq[1] + radius * (f2 * n[1] - fn * f[1]),
+        fq[2] + radius * (f2 * n[2] - fn * f[2]),
+    )
+    return math.sqrt(_dot(d, d)) / f2
+
+
+def _indentation_correction(f, r, n, k_n, geometry, contact_shape):
+    """Indentation depth and the contact point moved in by it (DESIGN.md 2.6).
+
+    Args:
+        f: (3,) force, N; r: (3,) contact point, m; n: (3,) outward unit normal. Sensor frame.
+        k_n: Winkler modulus, N/m^3; > 0.
+        geometry: the fingertip (outer radius and skin thickness).
+        contact_shape: one of ``CONTACT_SHAPES``.
+
+    Returns:
+        (r - delta n, delta): the corrected point (3,), m, and delta, m, the depth of
+        ``indentation_depth`` for the normal load -f . n capped at the skin thickness (the
+        shell is rigid).
+    """
+    load = max(-_dot(f, n), 0.0)
+    delta = min(
+        _depth(load, k_n, geometry.outer_radius, contact_shape),
+        geometry.skin_thickness,
+    )
+    return (r[0] - delta * n[0], r[1] - delta * n[1], r[2] - delta * n[2]), delta
 
 
 def edge_from_trace(points, point_std: float = 0.0005) -> tuple[np.ndarray, float]:

@@ -4,7 +4,8 @@ Frames: world (z up, table top at z = 0) and sensor (origin at the F/T sensor, z
 finger axis). SI units throughout.
 """
 
-from tactile_gym.sim.config import ObjectConfig, SensorConfig, SkinConfig
+from tactile_gym.sensing import SensorConfig  # re-exported: the sensor is a sensing concept
+from tactile_gym.sim.config import ObjectConfig, SkinConfig
 from tactile_gym.sim.objects import HingedObject
 from tactile_gym.sim.scene import ProbeScene, StepInfo
 from tactile_gym.sim.skin import SoftSkin

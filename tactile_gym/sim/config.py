@@ -1,4 +1,6 @@
-"""Configuration dataclasses of the simulator: skin, F/T sensor and hinged objects.
+"""Configuration dataclasses of the simulator: skin and hinged objects.
+
+The F/T sensor's ``SensorConfig`` lives in ``tactile_gym.sensing`` (real robots need it too).
 
 All values are SI: metres, newtons, radians, seconds. The YAML files under ``configs/sim`` and
 ``configs/objects`` mirror these defaults, with units in comments; ``from_yaml`` reads them and
@@ -21,7 +23,6 @@ import yaml
 __all__ = [
     "CONFIG_DIR",
     "ObjectConfig",
-    "SensorConfig",
     "SkinConfig",
 ]
 
@@ -127,39 +128,6 @@ class SkinConfig(_YamlMixin):
     def default_yaml(cls) -> SkinConfig:
         """The repository's ``configs/sim/skin.yml``."""
         return cls.from_yaml(CONFIG_DIR / "sim" / "skin.yml")
-
-
-@dataclass(frozen=True)
-class SensorConfig(_YamlMixin):
-    """Six-axis force/torque sensor noise and bias.
-
-    The noise is typical of a Nano17-class sensor (ATI Nano17 resolution ~1/320 N and
-    ~1/64 N mm; the paper used a BL AUTOTEC NANO 5/4 of similar class), taken a few times
-    larger to cover drift and electrical noise.
-
-    Attributes:
-        force_noise_std: per-axis Gaussian force noise, N.
-        moment_noise_std: per-axis Gaussian moment noise, N m.
-        force_bias: constant force offset, sensor frame, N.
-        moment_bias: constant moment offset, sensor frame, N m.
-    """
-
-    force_noise_std: float = 0.02
-    moment_noise_std: float = 5e-4
-    force_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    moment_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
-
-    def __post_init__(self) -> None:
-        _non_negative(self, "force_noise_std", "moment_noise_std")
-        for name in ("force_bias", "moment_bias"):
-            v = np.asarray(getattr(self, name), dtype=float)
-            if v.shape != (3,) or not np.all(np.isfinite(v)):
-                raise ValueError(f"{name} must be 3 finite numbers, got {getattr(self, name)!r}")
-
-    @classmethod
-    def default_yaml(cls) -> SensorConfig:
-        """The repository's ``configs/sim/sensor.yml``."""
-        return cls.from_yaml(CONFIG_DIR / "sim" / "sensor.yml")
 
 
 FAMILIES = ("scissors", "door", "lid", "tilted")

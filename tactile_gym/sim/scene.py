@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
-from tactile_gym.sensing.geometry import FingertipGeometry
-from tactile_gym.sim.config import ObjectConfig, SensorConfig, SkinConfig
+from tactile_gym.sensing import FingertipGeometry, SensorConfig
+from tactile_gym.sim.config import ObjectConfig, SkinConfig
 from tactile_gym.sim.objects import FREE_BODY, HingedObject
 from tactile_gym.sim.primitives import Plane
 from tactile_gym.sim.skin import Contact, SoftSkin
