@@ -5,9 +5,11 @@
     python -m agents.evaluate --policies scripted --episodes 1000 --workers 8     # on Ray
 
 A policy is ``random``, ``scripted`` or the path of a stable-baselines3 model saved by
-``agents.train``. A model runs on an env made with its run's ``env_kwargs`` (from the run's
-``config.yml``, updated by ``--env-kwargs``) and with the ``VecNormalize`` statistics saved
-with that model (``agents.train.vecnormalize_path``). Episode k of every policy uses seed
+``agents.train`` or by ``rl_zoo3.train``. A model runs on an env made with its run's
+``env_kwargs`` (from the run's ``config.yml``, or rl_zoo3's ``args.yml``, updated by
+``--env-kwargs``) and with the ``VecNormalize`` statistics saved with that model
+(``agents.train.vecnormalize_path``; rl_zoo3 keeps its final model's in
+``<env>/vecnormalize.pkl``, and none for its ``best_model``). Episode k of every policy uses seed
 ``seed + k`` for the env and the action space, so all policies meet the same objects and
 every episode depends on its seed alone: ``--workers`` spreads episodes over Ray workers with
 the same results as a serial run. The script prints a markdown table and writes
@@ -74,7 +76,7 @@ class ModelPolicy:
         run = model_run(path)
         self.model = {"ppo": PPO, "sac": SAC}[run["algo"]].load(path, device="cpu")
         self.normalizer = None
-        stats = vecnormalize_path(path)
+        stats = run["vecnormalize"]
         if stats.exists():
             self.normalizer = VecNormalize.load(str(stats), DummyVecEnv([lambda: env]))
             self.normalizer.training = False
@@ -122,20 +124,56 @@ class PolicySpec:
     env_kwargs: dict = field(default_factory=dict)
 
 
+def _load_zoo_yaml(path: Path) -> dict:
+    """rl_zoo3's ``args.yml``/``config.yml``: an ``OrderedDict`` dumped with its Python tag."""
+
+    class Loader(yaml.SafeLoader):
+        pass
+
+    def ordered_dict(loader, node):
+        (pairs,) = loader.construct_sequence(node, deep=True)
+        return dict(pairs)
+
+    Loader.add_constructor(
+        "tag:yaml.org,2002:python/object/apply:collections.OrderedDict", ordered_dict
+    )
+    return yaml.load(path.read_text(), Loader=Loader) or {}
+
+
 def model_run(path: Path) -> dict[str, Any]:
     """What a model's run folder says about it: ``run_dir``, ``algo``, ``env_id``,
-    ``env_kwargs`` and ``normalize`` (from ``config.yml``; defaults when there is none)."""
+    ``env_kwargs``, ``normalize`` and the ``vecnormalize`` statistics saved with the model.
+
+    Reads ``agents.train``'s ``config.yml``, or an rl_zoo3 run (``<env>.zip`` beside the
+    ``<env>/`` folder of ``args.yml``, ``config.yml`` and ``vecnormalize.pkl``); defaults
+    (``ppo``, no env kwargs, no normalisation) when there is neither.
+    """
     path = Path(path)
     run_dir = path.parent.parent if path.parent.name == "checkpoints" else path.parent
-    config_file = run_dir / "config.yml"
-    record = yaml.safe_load(config_file.read_text()) if config_file.exists() else {}
-    hyper = record.get("hyperparameters") or {}
+    zoo = [d for d in run_dir.iterdir() if (d / "args.yml").is_file()] if run_dir.is_dir() else []
+    if (run_dir / "config.yml").exists() or len(zoo) != 1:
+        config_file = run_dir / "config.yml"
+        record = yaml.safe_load(config_file.read_text()) if config_file.exists() else {}
+        hyper = record.get("hyperparameters") or {}
+        return {
+            "run_dir": run_dir,
+            "algo": record.get("algo", "ppo"),
+            "env_id": record.get("env_id"),
+            "env_kwargs": dict(hyper.get("env_kwargs") or {}),
+            "normalize": bool(hyper.get("normalize", False)),
+            "vecnormalize": vecnormalize_path(path),
+        }
+    (params,) = zoo
+    args = _load_zoo_yaml(params / "args.yml")
+    hyper = _load_zoo_yaml(params / "config.yml") if (params / "config.yml").exists() else {}
+    final = path.stem == params.name
     return {
         "run_dir": run_dir,
-        "algo": record.get("algo", "ppo"),
-        "env_id": record.get("env_id"),
-        "env_kwargs": dict(hyper.get("env_kwargs") or {}),
+        "algo": args.get("algo", "ppo"),
+        "env_id": args.get("env"),
+        "env_kwargs": dict(args.get("env_kwargs") or hyper.get("env_kwargs") or {}),
         "normalize": bool(hyper.get("normalize", False)),
+        "vecnormalize": params / "vecnormalize.pkl" if final else vecnormalize_path(path),
     }
 
 

@@ -125,14 +125,14 @@ def vecnormalize_path(model_path: str | Path) -> Path:
     """Where ``agents.train`` saves the ``VecNormalize`` statistics that go with a model.
 
     * ``final_model.zip``: ``vecnormalize.pkl`` beside it (rl_zoo3's name);
-    * ``checkpoints/rl_model_<n>_steps.zip``: ``checkpoints/rl_model_vecnormalize_<n>_steps.pkl``
-      (``CheckpointCallback``'s name);
+    * ``rl_model_<n>_steps.zip`` (checkpoints): ``rl_model_vecnormalize_<n>_steps.pkl`` beside
+      it (``CheckpointCallback``'s name, also in rl_zoo3's runs);
     * any other ``<name>.zip`` (``best_model.zip``): ``<name>_vecnormalize.pkl`` beside it.
     """
     path = Path(model_path)
     if path.stem == "final_model":
         return path.with_name("vecnormalize.pkl")
-    if path.parent.name == "checkpoints" and path.stem.startswith("rl_model_"):
+    if path.stem.startswith("rl_model_") and path.stem.endswith("_steps"):
         return path.with_name(path.stem.replace("rl_model_", "rl_model_vecnormalize_", 1) + ".pkl")
     return path.with_name(f"{path.stem}_vecnormalize.pkl")
 

@@ -278,6 +278,32 @@ def test_rl_zoo3_trains_with_our_config(algo, tmp_path):
     assert result.returncode == 0, result.stderr[-3000:]
     (model,) = (tmp_path / algo).glob("*/*.zip")
     assert (model.parent / model.stem / "vecnormalize.pkl").exists()
+    # agents.evaluate reads rl_zoo3's run layout too.
+    summaries = evaluate.evaluate([str(model)], episodes=1, out=tmp_path / "eval", plot=False)
+    assert summaries[f"{model.parent.name}/{model.stem}"]["episodes"] == 1
+
+
+def test_model_run_reads_rl_zoo3_layout(tmp_path):
+    from collections import OrderedDict
+
+    run_dir = tmp_path / "ppo" / "tactile_gym-HingeProbe-v0_1"
+    params = run_dir / "tactile_gym-HingeProbe-v0"
+    params.mkdir(parents=True)
+    args = OrderedDict(
+        algo="sac", env=train.DEFAULT_ENV_ID, env_kwargs={"observation_mode": "flat"}
+    )
+    (params / "args.yml").write_text(yaml.dump(args))  # rl_zoo3 dumps with the Python tag
+    (params / "config.yml").write_text(yaml.dump(OrderedDict(normalize=True, n_envs=2)))
+    for name in ("tactile_gym-HingeProbe-v0", "best_model", "rl_model_64_steps"):
+        (run_dir / f"{name}.zip").touch()
+    run = evaluate.model_run(run_dir / "tactile_gym-HingeProbe-v0.zip")
+    assert (run["algo"], run["env_id"], run["normalize"]) == ("sac", train.DEFAULT_ENV_ID, True)
+    assert run["env_kwargs"] == {"observation_mode": "flat"}
+    assert run["vecnormalize"] == params / "vecnormalize.pkl"
+    checkpoint = evaluate.model_run(run_dir / "rl_model_64_steps.zip")["vecnormalize"]
+    assert checkpoint == run_dir / "rl_model_vecnormalize_64_steps.pkl"
+    # rl_zoo3 saves no statistics with its best model: evaluating it is refused, not guessed.
+    assert not evaluate.model_run(run_dir / "best_model.zip")["vecnormalize"].exists()
 
 
 def test_evaluation_writes_json(tmp_path):
