@@ -53,8 +53,9 @@ ZOO_ONLY_KEYS = (
     "noise_std",
 )
 #: Torch threads of the learner unless told otherwise. The networks are small (two layers of
-#: 128-256 units, batches of 128-256): on 2 cores PPO trained 1.6x faster on one thread than on
-#: two (benchmarks/bench_train.py), since extra threads mostly wait on each other and on the envs.
+#: 128-256 units, batches of 128-256): on 2 cores shared with other jobs PPO trained 2.9-3.8x
+#: faster on one thread than on two (benchmarks/bench_train.py); extra threads mostly wait on
+#: each other and on the envs.
 DEFAULT_TORCH_THREADS = 1
 #: Hyperparameters that take rl_zoo3's ``"lin_<value>"`` linear schedules.
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
@@ -80,9 +81,10 @@ def available_cpus() -> int:
 def choose_vec_env(n_envs: int, n_cpus: int) -> str:
     """``"subproc"`` when each env worker gets a core of its own beside the learner.
 
-    On 2 cores, 2 envs in subprocesses ran PPO 1.23x slower than the same 2 envs in this
-    process (``benchmarks/bench_train.py``): the workers and the learner only take turns on
-    the same cores, and every step pays for pickling observations between processes.
+    On 2 cores shared with other jobs, PPO with 2 envs in this process ran 1.16x and 1.44x
+    as fast as with 2 subprocesses (0.90x in a third run; ``benchmarks/bench_train.py``): the
+    workers and the learner only take turns on the same cores, and every step pays for
+    pickling observations between processes.
 
     Args:
         n_envs: parallel envs.

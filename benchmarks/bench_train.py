@@ -11,13 +11,14 @@ cost, so its run is SB3's own overhead (rollout bookkeeping, normalisation, the 
 updates); measured in the same run, ``1 - t_dummy / t_env`` is the env's share of training
 time. *env only* steps the same vector env with random actions and no learning.
 
-Prints a markdown table. Timings on a shared machine vary by 10-20%; ``--repeats`` keeps the
-fastest of several runs of each case.
+Prints a markdown table. On a shared machine timings vary a lot with the load from elsewhere:
+``--repeats`` runs the cases round-robin and keeps the fastest run of each.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -139,15 +140,18 @@ def main(argv: list[str] | None = None) -> list[dict]:
         (f"dummy env, {other}, {threads} thread", other, threads, True),
         (f"env, {chosen}, {more} threads", chosen, more, False),
     ]
-    rows = []
-    for label, vec_env, n_threads, dummy in cases:
-        seconds = min(
-            time_training(args.algo, args.env, config, vec_env, n_threads, args.steps, dummy)
-            for _ in range(args.repeats)
-        )
-        rows.append({"case": "train: " + label, "seconds": seconds})
-    seconds = min(time_env_only(args.env, config, chosen, args.steps) for _ in range(args.repeats))
-    rows.append({"case": f"env only, random actions, {chosen}", "seconds": seconds})
+    # Round-robin over the cases, so that a burst of load from elsewhere hits them all alike;
+    # each case keeps its fastest run.
+    best = [math.inf] * (len(cases) + 1)
+    for _ in range(args.repeats):
+        for i, (_, vec_env, n_threads, dummy) in enumerate(cases):
+            seconds = time_training(
+                args.algo, args.env, config, vec_env, n_threads, args.steps, dummy
+            )
+            best[i] = min(best[i], seconds)
+        best[-1] = min(best[-1], time_env_only(args.env, config, chosen, args.steps))
+    labels = [f"train: {case[0]}" for case in cases] + [f"env only, random actions, {chosen}"]
+    rows = [{"case": label, "seconds": seconds} for label, seconds in zip(labels, best)]
 
     print(
         f"{args.algo.upper()} on {args.env}, {n_envs} envs, {args.steps} timed env steps, "
