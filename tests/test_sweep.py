@@ -112,8 +112,10 @@ def test_shipped_sweeps_load():
     assert len(jobs) == len(tactile_gym.ENV_IDS) * 2 * 5
     assert len({job.key for job in jobs}) == len(jobs)
     smoke = sweep.expand(sweep.load_sweep("smoke"))
-    assert [job.key for job in smoke] == ["ppo/HingeProbe-v0_s0", "ppo/HingeProbe-v0_s1"]
+    name = smoke[0].env_id.split("/")[-1]
+    assert [job.key for job in smoke] == [f"ppo/{name}_s0", f"ppo/{name}_s1"]
     assert smoke[0].n_timesteps == 256
+    assert smoke[0].hyperparams["n_steps"] == 64  # the sweep's override over the YAML
 
 
 @pytest.mark.parametrize(
