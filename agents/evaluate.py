@@ -2,11 +2,18 @@
 
     python -m agents.evaluate --policies random scripted --episodes 20
     python -m agents.evaluate --policies scripted runs/ppo/HingeProbe-v0_s0_.../best_model.zip
+    python -m agents.evaluate --policies scripted --episodes 1000 --workers 8     # on Ray
 
 A policy is ``random``, ``scripted`` or the path of a stable-baselines3 model saved by
-``agents.train`` (its run folder supplies the algorithm and the ``VecNormalize`` statistics).
-Episode k of every policy uses seed ``seed + k``, so all policies meet the same objects. The
-script prints a markdown table and writes ``evaluation.json`` and ``error_vs_step.png`` to
+``agents.train`` or by ``rl_zoo3.train``. A model runs on an env made with its run's
+``env_kwargs`` (from the run's ``config.yml``, or rl_zoo3's ``args.yml``, updated by
+``--env-kwargs``) and with the ``VecNormalize`` statistics saved with that model
+(``agents.train.vecnormalize_path``; rl_zoo3 keeps its final model's in
+``<env>/vecnormalize.pkl``, and none for its ``best_model``). Episode k of every policy uses seed
+``seed + k`` for the env and the action space, so all policies meet the same objects and
+every episode depends on its seed alone: ``--workers`` spreads episodes over Ray workers with
+the same results as a serial run. The script prints a markdown table and writes
+``evaluation.json`` (strict JSON: NaN is written as ``null``) and ``error_vs_step.png`` to
 ``--out``.
 """
 
@@ -14,8 +21,10 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import asdict, dataclass
+import math
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -24,19 +33,25 @@ import yaml
 import tactile_gym
 
 from .scripted import ScriptedProbePolicy
+from .train import DEFAULT_ENV_ID, KeyValue, make_env, torch_threads, vecnormalize_path
 
 #: Position error reported while there is no estimate, m (the task's E_max).
 NO_ESTIMATE_ERROR = 0.1
 #: The "steps to reach" threshold of the table, m.
 REACH_THRESHOLD = 0.005
+BUILTIN_POLICIES = ("random", "scripted")
+
+
+def scripted_policy(env: gym.Env):
+    """The scripted baseline for ``env``: the one place that picks it."""
+    return ScriptedProbePolicy.for_env(env.unwrapped)
 
 
 class RandomPolicy:
-    """Uniform random actions from a seeded action space."""
+    """Uniform random actions from the env's action space (seeded by ``run_episode``)."""
 
-    def __init__(self, env: gym.Env, seed: int) -> None:
+    def __init__(self, env: gym.Env) -> None:
         self.action_space = env.action_space
-        self.action_space.seed(seed)
 
     def reset(self) -> None:
         pass
@@ -46,26 +61,31 @@ class RandomPolicy:
 
 
 class ModelPolicy:
-    """A stable-baselines3 model saved by ``agents.train``, with its observation scaling."""
+    """A stable-baselines3 model saved by ``agents.train``, with its own observation scaling.
+
+    Raises:
+        ValueError: the run normalised observations but the statistics saved with this model
+            are missing (another model's statistics would scale its inputs wrongly).
+    """
 
     def __init__(self, path: str | Path, env: gym.Env) -> None:
         from stable_baselines3 import PPO, SAC
         from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
         path = Path(path)
-        run_dir, algo = model_run(path)
-        self.model = {"ppo": PPO, "sac": SAC}[algo].load(path, device="cpu")
+        run = model_run(path)
+        self.model = {"ppo": PPO, "sac": SAC}[run["algo"]].load(path, device="cpu")
         self.normalizer = None
-        # A checkpoint has its own normalisation statistics (CheckpointCallback names them
-        # rl_model_vecnormalize_<steps>_steps.pkl); other models use the run's final ones.
-        stats = run_dir / "vecnormalize.pkl"
-        if path.parent.name == "checkpoints":
-            name = path.stem.replace("rl_model_", "rl_model_vecnormalize_")
-            stats = path.with_name(name + ".pkl")
+        stats = run["vecnormalize"]
         if stats.exists():
-            dummy = DummyVecEnv([lambda: env])
-            self.normalizer = VecNormalize.load(str(stats), dummy)
+            self.normalizer = VecNormalize.load(str(stats), DummyVecEnv([lambda: env]))
             self.normalizer.training = False
+        elif run["normalize"]:
+            raise ValueError(
+                f"{path} was trained with VecNormalize but its statistics {stats} are missing; "
+                "evaluate a model saved with its statistics (final_model, checkpoints, or a "
+                "best_model from a run of this version)"
+            )
 
     def reset(self) -> None:
         pass
@@ -87,44 +107,171 @@ class EpisodeRecord:
     terminated: bool
 
 
-def model_run(path: Path) -> tuple[Path, str]:
-    """The run folder of a model saved by ``agents.train`` (final, best or checkpoint) and
-    its algorithm (from the run's ``config.yml``; ``"ppo"`` when there is none)."""
+@dataclass(frozen=True)
+class PolicySpec:
+    """Everything needed to rebuild a policy and its env, in this process or a worker.
+
+    Attributes:
+        label: the unique name in tables, plots and JSON.
+        name: ``random``, ``scripted`` or a model path.
+        env_id: the env to run on.
+        env_kwargs: ``gym.make`` keywords.
+    """
+
+    label: str
+    name: str
+    env_id: str
+    env_kwargs: dict = field(default_factory=dict)
+
+
+def _load_zoo_yaml(path: Path) -> dict:
+    """rl_zoo3's ``args.yml``/``config.yml``: an ``OrderedDict`` dumped with its Python tag."""
+
+    class Loader(yaml.SafeLoader):
+        pass
+
+    def ordered_dict(loader, node):
+        (pairs,) = loader.construct_sequence(node, deep=True)
+        return dict(pairs)
+
+    Loader.add_constructor(
+        "tag:yaml.org,2002:python/object/apply:collections.OrderedDict", ordered_dict
+    )
+    return yaml.load(path.read_text(), Loader=Loader) or {}
+
+
+def model_run(path: Path) -> dict[str, Any]:
+    """What a model's run folder says about it: ``run_dir``, ``algo``, ``env_id``,
+    ``env_kwargs``, ``normalize`` and the ``vecnormalize`` statistics saved with the model.
+
+    Reads ``agents.train``'s ``config.yml``, or an rl_zoo3 run (``<env>.zip`` beside the
+    ``<env>/`` folder of ``args.yml``, ``config.yml`` and ``vecnormalize.pkl``); defaults
+    (``ppo``, no env kwargs, no normalisation) when there is neither.
+    """
+    path = Path(path)
     run_dir = path.parent.parent if path.parent.name == "checkpoints" else path.parent
-    config_file = run_dir / "config.yml"
-    algo = yaml.safe_load(config_file.read_text())["algo"] if config_file.exists() else "ppo"
-    return run_dir, algo
+    zoo = [d for d in run_dir.iterdir() if (d / "args.yml").is_file()] if run_dir.is_dir() else []
+    if (run_dir / "config.yml").exists() or len(zoo) != 1:
+        config_file = run_dir / "config.yml"
+        record = yaml.safe_load(config_file.read_text()) if config_file.exists() else {}
+        hyper = record.get("hyperparameters") or {}
+        return {
+            "run_dir": run_dir,
+            "algo": record.get("algo", "ppo"),
+            "env_id": record.get("env_id"),
+            "env_kwargs": dict(hyper.get("env_kwargs") or {}),
+            "normalize": bool(hyper.get("normalize", False)),
+            "vecnormalize": vecnormalize_path(path),
+        }
+    (params,) = zoo
+    args = _load_zoo_yaml(params / "args.yml")
+    hyper = _load_zoo_yaml(params / "config.yml") if (params / "config.yml").exists() else {}
+    final = path.stem == params.name
+    return {
+        "run_dir": run_dir,
+        "algo": args.get("algo", "ppo"),
+        "env_id": args.get("env"),
+        "env_kwargs": dict(args.get("env_kwargs") or hyper.get("env_kwargs") or {}),
+        "normalize": bool(hyper.get("normalize", False)),
+        "vecnormalize": params / "vecnormalize.pkl" if final else vecnormalize_path(path),
+    }
 
 
-def policy_label(name: str) -> str:
-    """A short name for tables and plots: the policy name, or "<algo> <model file stem>"."""
-    path = Path(name)
-    if not path.exists():
-        return name
-    return f"{model_run(path)[1]} {path.stem}"
+def policy_labels(names: list[str]) -> list[str]:
+    """Unique labels: a built-in policy's name, or a model's run folder and file stem
+    (``HingeProbe-v0_s0_.../final_model``), with more parent folders where two would clash.
+
+    Raises:
+        ValueError: the same policy is listed twice.
+    """
+    resolved = [str(Path(n).resolve()) if n not in BUILTIN_POLICIES else n for n in names]
+    repeated = sorted({n for n in resolved if resolved.count(n) > 1})
+    if repeated:
+        raise ValueError(f"each policy may be listed once, got {repeated} more than once")
+
+    def label(name: str, depth: int) -> str:
+        if name in BUILTIN_POLICIES:
+            return name
+        path = Path(name)
+        run_dir = model_run(path)["run_dir"]
+        inner = path.relative_to(run_dir).with_suffix("").as_posix()
+        parents = run_dir.resolve().parts[-depth:]
+        return "/".join([*parents, inner])
+
+    depths = [1] * len(names)
+    while True:
+        labels = [label(n, d) for n, d in zip(names, depths)]
+        clashes = {x for x in labels if labels.count(x) > 1}
+        if not clashes:
+            return labels
+        grown = False
+        for i, x in enumerate(labels):
+            if x in clashes and depths[i] < len(Path(names[i]).resolve().parts):
+                depths[i] += 1
+                grown = True
+        if not grown:
+            raise ValueError(f"cannot give the policies unique labels: {labels}")
 
 
-def make_policy(name: str, env: gym.Env, seed: int):
+def resolve_policies(
+    policies: list[str], env_id: str | None = None, env_kwargs: dict | None = None
+) -> list[PolicySpec]:
+    """Labels, env ids and env kwargs for each policy.
+
+    Args:
+        policies: ``random``, ``scripted`` or model paths.
+        env_id: the env for all policies; ``None`` takes the models' own env id when they
+            agree, else ``DEFAULT_ENV_ID``.
+        env_kwargs: keywords that update each model's run ``env_kwargs`` (and are the only
+            keywords of the built-in policies' env).
+
+    Raises:
+        ValueError: an unknown policy or env id.
+    """
+    for name in policies:
+        if name not in BUILTIN_POLICIES and not Path(name).is_file():
+            raise ValueError(
+                f"policy must be one of {BUILTIN_POLICIES} or an existing model path, got {name!r}"
+            )
+    runs = {name: model_run(Path(name)) for name in policies if name not in BUILTIN_POLICIES}
+    if env_id is None:
+        trained_on = {run["env_id"] for run in runs.values()} - {None}
+        env_id = trained_on.pop() if len(trained_on) == 1 else DEFAULT_ENV_ID
+    if env_id not in tactile_gym.ENV_IDS:
+        raise ValueError(f"env_id must be one of {tactile_gym.ENV_IDS}, got {env_id!r}")
+    specs = []
+    for name, label in zip(policies, policy_labels(policies)):
+        kwargs = dict(runs[name]["env_kwargs"]) if name in runs else {}
+        kwargs.update(env_kwargs or {})
+        specs.append(PolicySpec(label, name, env_id, kwargs))
+    return specs
+
+
+def make_policy(name: str, env: gym.Env):
     """The policy called ``name``: ``random``, ``scripted`` or a model path."""
     if name == "random":
-        return RandomPolicy(env, seed)
+        return RandomPolicy(env)
     if name == "scripted":
-        return ScriptedProbePolicy.for_env(env.unwrapped)
-    if Path(name).exists():
+        return scripted_policy(env)
+    if Path(name).is_file():
         return ModelPolicy(name, env)
-    raise ValueError(f"policy must be 'random', 'scripted' or an existing model path, got {name!r}")
+    raise ValueError(
+        f"policy must be one of {BUILTIN_POLICIES} or an existing model path, got {name!r}"
+    )
 
 
 def run_episode(env: gym.Env, policy, seed: int) -> EpisodeRecord:
-    """One episode; errors are recorded after reset and after every step."""
+    """One episode from ``seed`` alone (env and action space); errors are recorded after
+    reset and after every step."""
     obs, info = env.reset(seed=seed)
+    env.action_space.seed(seed)
     policy.reset()
-    position, angle = [_finite(info["position_error"])], [info["angle_error"]]
+    position, angle = [_finite(info["position_error"])], [float(info["angle_error"])]
     terminated = truncated = False
     while not (terminated or truncated):
         obs, _, terminated, truncated, info = env.step(policy.get_action(obs))
         position.append(_finite(info["position_error"]))
-        angle.append(info["angle_error"])
+        angle.append(float(info["angle_error"]))
     return EpisodeRecord(
         seed=seed,
         position_error=position,
@@ -135,12 +282,51 @@ def run_episode(env: gym.Env, policy, seed: int) -> EpisodeRecord:
     )
 
 
+def run_episodes(spec: PolicySpec, seeds: list[int]) -> list[EpisodeRecord]:
+    """Episodes of one policy on a fresh env (what a Ray worker runs for a chunk of seeds).
+
+    Torch runs on one thread, so a model acts the same here and in any worker.
+    """
+    env = make_env(spec.env_id, **spec.env_kwargs)
+    try:
+        policy = make_policy(spec.name, env)
+        if isinstance(policy, ModelPolicy):
+            with torch_threads(1):
+                return [run_episode(env, policy, s) for s in seeds]
+        return [run_episode(env, policy, s) for s in seeds]
+    finally:
+        env.close()
+
+
 def _finite(error: float) -> float:
     return float(min(error, NO_ESTIMATE_ERROR))
 
 
+def chunks(seeds: list[int], n: int) -> list[list[int]]:
+    """``seeds`` in at most ``n`` contiguous chunks of near-equal size."""
+    n = max(1, min(n, len(seeds)))
+    bounds = np.linspace(0, len(seeds), n + 1).round().astype(int)
+    return [seeds[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def run_parallel(
+    specs: list[PolicySpec], seeds: list[int], workers: int, address: str | None = None
+) -> dict[str, list[EpisodeRecord]]:
+    """Every policy's episodes spread over ``workers`` Ray tasks each (one CPU apiece),
+    reassembled in seed order. Starts an embedded Ray unless one is running or ``address``
+    names a cluster."""
+    from ._ray import ray_session
+
+    with ray_session(address=address) as ray:
+        remote = ray.remote(num_cpus=1)(run_episodes)
+        futures = {s.label: [remote.remote(s, c) for c in chunks(seeds, workers)] for s in specs}
+        return {
+            label: [r for part in ray.get(refs) for r in part] for label, refs in futures.items()
+        }
+
+
 def summarize(records: list[EpisodeRecord]) -> dict[str, float]:
-    """Table figures over episodes: errors in mm and degrees."""
+    """Table figures over episodes: errors in mm and degrees (NaN where undefined)."""
     final_pos = np.array([r.position_error[-1] for r in records]) * 1e3
     final_ang = np.degrees([r.angle_error[-1] for r in records])
     reach = [
@@ -163,6 +349,21 @@ def summarize(records: list[EpisodeRecord]) -> dict[str, float]:
     }
 
 
+def json_safe(value):
+    """``value`` with every non-finite float replaced by ``None`` (JSON has no NaN)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    return value
+
+
+def _fmt(value: float, spec: str) -> str:
+    return "-" if value is None or not math.isfinite(value) else format(value, spec)
+
+
 def markdown_table(summaries: dict[str, dict[str, float]]) -> str:
     header = (
         "| policy | episodes | final pos. error mean / median / P90 (mm) | final angle error"
@@ -173,7 +374,7 @@ def markdown_table(summaries: dict[str, dict[str, float]]) -> str:
         f"| {name} | {s['episodes']} | {s['position_mean_mm']:.1f} / "
         f"{s['position_median_mm']:.1f} / {s['position_p90_mm']:.1f} | "
         f"{s['angle_mean_deg']:.2f} / {s['angle_median_deg']:.2f} | {s['success_rate']:.0%} | "
-        f"{s['reached_5mm_rate']:.0%} | {s['steps_to_5mm_mean']:.0f} | "
+        f"{s['reached_5mm_rate']:.0%} | {_fmt(s['steps_to_5mm_mean'], '.0f')} | "
         f"{s['measurements_mean']:.1f} | {s['failure_rate']:.0%} |"
         for name, s in summaries.items()
     ]
@@ -214,40 +415,54 @@ def plot_errors(records: dict[str, list[EpisodeRecord]], path: Path) -> None:
 
 def evaluate(
     policies: list[str],
-    env_id: str = "tactile_gym/HingeProbe-v0",
+    env_id: str | None = None,
     episodes: int = 20,
     seed: int = 1000,
     out: str | Path = "results/evaluation",
     env_kwargs: dict | None = None,
     plot: bool = True,
+    workers: int = 1,
+    address: str | None = None,
 ) -> dict[str, dict[str, float]]:
-    """Evaluate each policy over the same seeded episodes; write JSON and a plot."""
-    if env_id not in tactile_gym.ENV_IDS:
-        raise ValueError(f"env_id must be one of {tactile_gym.ENV_IDS}, got {env_id!r}")
+    """Evaluate each policy over the same seeded episodes; write JSON and a plot.
+
+    Args:
+        policies: ``random``, ``scripted`` or paths of models saved by ``agents.train``.
+        env_id: the env; ``None`` takes the models' own when they agree (see
+            :func:`resolve_policies`).
+        episodes: episodes per policy, seeds ``seed .. seed + episodes - 1``.
+        seed: the first episode's seed.
+        out: folder of ``evaluation.json`` and ``error_vs_step.png``.
+        env_kwargs: ``gym.make`` keywords over each model's run ``env_kwargs``.
+        plot: write the error plot (needs matplotlib).
+        workers: Ray tasks per policy; 1 runs everything in this process.
+        address: a Ray cluster to join (``"auto"`` or ``host:port``); implies Ray.
+
+    Returns:
+        The summary of each policy, by label.
+    """
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    specs = resolve_policies(policies, env_id, env_kwargs)
+    seeds = [seed + k for k in range(episodes)]
+    if workers > 1 or address:
+        records = run_parallel(specs, seeds, workers, address)
+    else:
+        records = {spec.label: run_episodes(spec, seeds) for spec in specs}
+    summaries = {label: summarize(recs) for label, recs in records.items()}
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    records: dict[str, list[EpisodeRecord]] = {}
-    for name in policies:
-        env = gym.make(env_id, **(env_kwargs or {}))
-        try:
-            policy = make_policy(name, env, seed)
-            records[policy_label(name)] = [
-                run_episode(env, policy, seed + k) for k in range(episodes)
-            ]
-        finally:
-            env.close()
-    summaries = {name: summarize(recs) for name, recs in records.items()}
     result = {
-        "env_id": env_id,
-        "policies": {policy_label(name): name for name in policies},
+        "env_id": specs[0].env_id,
+        "policies": {s.label: {"name": s.name, "env_kwargs": s.env_kwargs} for s in specs},
         "episodes": episodes,
         "seed": seed,
         "summaries": summaries,
         "episodes_detail": {name: [asdict(r) for r in recs] for name, recs in records.items()},
     }
-    (out / "evaluation.json").write_text(json.dumps(result, indent=1))
+    (out / "evaluation.json").write_text(json.dumps(json_safe(result), indent=1, allow_nan=False))
     if plot:
         plot_errors(records, out / "error_vs_step.png")
     return summaries
@@ -255,19 +470,30 @@ def evaluate(
 
 def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--policies", nargs="+", default=["random", "scripted"])
-    parser.add_argument("--env", default="tactile_gym/HingeProbe-v0")
+    parser.add_argument("--policies", nargs="+", default=list(BUILTIN_POLICIES))
+    parser.add_argument("--env", default=None, help=f"one of {tactile_gym.ENV_IDS}")
+    parser.add_argument("--env-kwargs", nargs="+", action=KeyValue, default={})
     parser.add_argument("--episodes", type=int, default=20)
     parser.add_argument("--seed", type=int, default=1000)
     parser.add_argument("--out", default="results/evaluation")
+    parser.add_argument("--workers", type=int, default=1, help="Ray tasks per policy")
+    parser.add_argument("--address", default=None, help="Ray cluster to join, e.g. auto")
     parser.add_argument("--no-plot", action="store_true")
     args = parser.parse_args(argv)
     summaries = evaluate(
-        args.policies, args.env, args.episodes, args.seed, args.out, plot=not args.no_plot
+        args.policies,
+        args.env,
+        args.episodes,
+        args.seed,
+        args.out,
+        env_kwargs=args.env_kwargs,
+        plot=not args.no_plot,
+        workers=args.workers,
+        address=args.address,
     )
-    print(
-        f"{args.env}, {args.episodes} episodes, seeds {args.seed}..{args.seed + args.episodes - 1}"
-    )
+    data = json.loads((Path(args.out) / "evaluation.json").read_text())
+    last = args.seed + args.episodes - 1
+    print(f"{data['env_id']}, {args.episodes} episodes, seeds {args.seed}..{last}")
     print(markdown_table(summaries))
     print(f"wrote {Path(args.out) / 'evaluation.json'}")
     return summaries

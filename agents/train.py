@@ -1,33 +1,64 @@
 """Train a stable-baselines3 agent on a tactile_gym env.
 
     python -m agents.train --algo ppo --env tactile_gym/HingeProbe-v0
-    python -m agents.train --algo sac --env tactile_gym/HingeProbe-v0 --n-timesteps 20000
+    python -m agents.train --algo sac --n-timesteps 20000 --env-kwargs observation_mode:flat \
+        --hyperparams policy:MlpPolicy
 
-Hyperparameters come from ``configs/train/<algo>.yml``: the ``default`` entry updated by the
-env's own entry, then by ``--n-timesteps``/``--n-envs``. Each run gets its own folder under
-``--log-folder`` holding the resolved config, the arguments and the command line
-(``config.yml``), TensorBoard logs, checkpoints, the best model found by the periodic
-evaluation, the final model (``final_model.zip``) and, with normalisation, the
-``VecNormalize`` statistics (``vecnormalize.pkl``).
+Hyperparameters come from ``configs/train/<algo>.yml``, in rl-baselines3-zoo's format (the
+same file works with ``python -m rl_zoo3.train -conf``): the ``default`` entry updated by the
+env's own entry, then by ``--hyperparams``, ``--env-kwargs``, ``--n-timesteps`` and
+``--n-envs``. Each run gets its own folder under ``--log-folder`` holding the resolved config,
+the arguments and the command line (``config.yml``), TensorBoard logs, the periodic evaluations
+(``eval/evaluations.npz``), checkpoints, the best model found by the periodic evaluation
+(``best_model.zip``), the final model (``final_model.zip``) and, with normalisation, the
+``VecNormalize`` statistics saved with each model (see :func:`vecnormalize_path`).
+
+The envs run in this process (``DummyVecEnv``) unless every env worker can have a core of its
+own beside the learner (:func:`choose_vec_env`); ``--vec-env`` overrides that choice.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import copy
 import functools
+import os
 import shlex
 import sys
 import time
+from collections.abc import Iterator, Mapping
 from pathlib import Path
+from typing import Any
 
 import yaml
 
+import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
 
 ALGOS = ("ppo", "sac")
+VEC_ENVS = ("auto", "dummy", "subproc")
+#: The env trained and evaluated when none is named.
+DEFAULT_ENV_ID = tactile_gym.ENV_IDS[0]
 #: Keys of a training config that are not constructor arguments of the algorithm.
 RUN_KEYS = ("policy", "n_timesteps", "n_envs", "normalize", "env_kwargs")
+#: rl_zoo3 keys that agents.train does not implement (it would pass them to the algorithm).
+ZOO_ONLY_KEYS = (
+    "frame_stack",
+    "env_wrapper",
+    "vec_env_wrapper",
+    "callback",
+    "monitor_kwargs",
+    "noise_type",
+    "noise_std",
+)
+#: Torch threads of the learner unless told otherwise. The networks are small (two layers of
+#: 128-256 units, batches of 128-256): on 2 cores shared with other jobs PPO trained 2.9-3.8x
+#: faster on one thread than on two (benchmarks/bench_train.py); extra threads mostly wait on
+#: each other and on the envs.
+DEFAULT_TORCH_THREADS = 1
+#: Hyperparameters that take rl_zoo3's ``"lin_<value>"`` linear schedules.
+SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
 
 
 def make_env(env_id: str, **env_kwargs):
@@ -39,8 +70,48 @@ def make_env(env_id: str, **env_kwargs):
     return gym.make(env_id, **env_kwargs)
 
 
-def load_hyperparameters(algo: str, env_id: str, config_path: Path | None = None) -> dict:
-    """The ``default`` entry of the algo's YAML, updated by the env's entry."""
+def available_cpus() -> int:
+    """Cores this process may run on (its CPU affinity, not the machine's core count)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS and Windows have no affinity call
+        return os.cpu_count() or 1
+
+
+def choose_vec_env(n_envs: int, n_cpus: int) -> str:
+    """``"subproc"`` when each env worker gets a core of its own beside the learner.
+
+    On 2 cores shared with other jobs, PPO with 2 envs in this process ran 1.16x and 1.44x
+    as fast as with 2 subprocesses (0.90x in a third run; ``benchmarks/bench_train.py``): the
+    workers and the learner only take turns on the same cores, and every step pays for
+    pickling observations between processes.
+
+    Args:
+        n_envs: parallel envs.
+        n_cpus: cores the run may use.
+    """
+    return "subproc" if n_envs > 1 and n_cpus >= n_envs + 1 else "dummy"
+
+
+@contextlib.contextmanager
+def torch_threads(n: int) -> Iterator[None]:
+    """Run torch with ``n`` intra-op threads, restoring the previous number afterwards."""
+    import torch
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
+
+
+def load_hyperparameters(algo: str, env_id: str, config_path: str | Path | None = None) -> dict:
+    """The ``default`` entry of the algo's YAML, updated by the env's entry.
+
+    The shipped files make every env entry complete with a YAML merge key, so this is also
+    exactly the entry rl_zoo3 reads; an id without an entry gets ``default`` in both.
+    """
     if algo not in ALGOS:
         raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
     path = preset_path("train", config_path or algo)
@@ -50,6 +121,22 @@ def load_hyperparameters(algo: str, env_id: str, config_path: Path | None = None
     config = copy.deepcopy(table["default"])
     config.update(copy.deepcopy(table.get(env_id) or {}))
     return config
+
+
+def vecnormalize_path(model_path: str | Path) -> Path:
+    """Where ``agents.train`` saves the ``VecNormalize`` statistics that go with a model.
+
+    * ``final_model.zip``: ``vecnormalize.pkl`` beside it (rl_zoo3's name);
+    * ``rl_model_<n>_steps.zip`` (checkpoints): ``rl_model_vecnormalize_<n>_steps.pkl`` beside
+      it (``CheckpointCallback``'s name, also in rl_zoo3's runs);
+    * any other ``<name>.zip`` (``best_model.zip``): ``<name>_vecnormalize.pkl`` beside it.
+    """
+    path = Path(model_path)
+    if path.stem == "final_model":
+        return path.with_name("vecnormalize.pkl")
+    if path.stem.startswith("rl_model_") and path.stem.endswith("_steps"):
+        return path.with_name(path.stem.replace("rl_model_", "rl_model_vecnormalize_", 1) + ".pkl")
+    return path.with_name(f"{path.stem}_vecnormalize.pkl")
 
 
 def make_run_dir(log_folder: Path, algo: str, env_id: str, seed: int) -> Path:
@@ -65,20 +152,119 @@ def make_run_dir(log_folder: Path, algo: str, env_id: str, seed: int) -> Path:
     return run_dir
 
 
+def resolve_config(
+    algo: str,
+    env_id: str,
+    config_path: str | Path | None = None,
+    hyperparams: Mapping[str, Any] | None = None,
+    env_kwargs: Mapping[str, Any] | None = None,
+    n_timesteps: int | None = None,
+    n_envs: int | None = None,
+) -> dict:
+    """The run's hyperparameters: the YAML, then the overrides, checked.
+
+    Args:
+        algo: ``"ppo"`` or ``"sac"``.
+        env_id: a registered id.
+        config_path: YAML of hyperparameters (name or path); defaults to the algo's.
+        hyperparams: keys that replace the YAML's (like rl_zoo3's ``--hyperparams``).
+        env_kwargs: keyword arguments of ``gym.make`` that update the YAML's ``env_kwargs``
+            key by key.
+        n_timesteps: total env steps, if given.
+        n_envs: parallel envs, if given.
+
+    Raises:
+        ValueError: an unsupported key or value, naming it and what is allowed.
+    """
+    config = load_hyperparameters(algo, env_id, config_path)
+    config.update(copy.deepcopy(dict(hyperparams or {})))
+    if env_kwargs:
+        config["env_kwargs"] = {**(config.get("env_kwargs") or {}), **env_kwargs}
+    if n_timesteps is not None:
+        config["n_timesteps"] = int(n_timesteps)
+    if n_envs is not None:
+        config["n_envs"] = int(n_envs)
+    for key in ("policy", "n_timesteps"):
+        if key not in config:
+            raise ValueError(f"the {algo} config for {env_id} has no {key!r}")
+    config.setdefault("n_envs", 1)
+    for key in ("n_timesteps", "n_envs"):
+        if not int(config[key]) >= 1:
+            raise ValueError(f"{key} must be >= 1, got {config[key]!r}")
+    unsupported = sorted(set(config) & set(ZOO_ONLY_KEYS))
+    if unsupported:
+        raise ValueError(
+            f"agents.train does not implement the rl_zoo3 keys {unsupported}; "
+            f"remove them or train with python -m rl_zoo3.train"
+        )
+    if not isinstance(config.get("normalize", False), (bool, dict)):
+        raise ValueError(
+            "normalize must be true, false or a mapping of VecNormalize arguments, "
+            f"got {config['normalize']!r}"
+        )
+    for key in ("policy_kwargs", "env_kwargs"):
+        if not isinstance(config.get(key) or {}, dict):
+            raise ValueError(f"{key} must be a mapping, got {config[key]!r}")
+    return config
+
+
+def _linear_schedule(initial: float):
+    def schedule(progress_remaining: float) -> float:
+        return progress_remaining * initial
+
+    return schedule
+
+
+def algo_kwargs(config: Mapping[str, Any]) -> dict:
+    """The config's constructor arguments of the algorithm, with rl_zoo3's value forms:
+    ``"lin_<x>"`` schedules and ``train_freq`` lists."""
+    kwargs = {k: copy.deepcopy(v) for k, v in config.items() if k not in RUN_KEYS}
+    for key in SCHEDULE_KEYS:
+        value = kwargs.get(key)
+        if isinstance(value, str):
+            kind, _, initial = value.partition("_")
+            if kind != "lin":
+                raise ValueError(f"{key} must be a number or 'lin_<number>', got {value!r}")
+            kwargs[key] = _linear_schedule(float(initial))
+    if isinstance(kwargs.get("train_freq"), list):
+        kwargs["train_freq"] = tuple(kwargs["train_freq"])
+    return kwargs
+
+
+def _save_vecnormalize_on_best(path: Path):
+    """A callback for ``EvalCallback(callback_on_new_best=...)``: saves the training
+    statistics with the new best model (the ones its evaluation just used)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class SaveVecNormalize(BaseCallback):
+        def _on_step(self) -> bool:
+            vec_normalize = self.model.get_vec_normalize_env()
+            if vec_normalize is not None:
+                vec_normalize.save(str(path))
+            return True
+
+    return SaveVecNormalize()
+
+
 def train(
     algo: str = "ppo",
-    env_id: str = "tactile_gym/HingeProbe-v0",
+    env_id: str = DEFAULT_ENV_ID,
     n_timesteps: int | None = None,
     n_envs: int | None = None,
     seed: int = 0,
     log_folder: str | Path = "runs",
-    config_path: Path | None = None,
+    config_path: str | Path | None = None,
+    hyperparams: Mapping[str, Any] | None = None,
+    env_kwargs: Mapping[str, Any] | None = None,
     eval_freq: int = 10_000,
     eval_episodes: int = 5,
     checkpoint_freq: int = 50_000,
     progress_bar: bool = False,
-    vec_env: str = "subproc",
+    vec_env: str = "auto",
+    n_cpus: int | None = None,
+    n_threads: int | None = None,
     device: str = "cpu",
+    run_dir: str | Path | None = None,
     command: str | None = None,
 ) -> Path:
     """Train one agent and return its run folder.
@@ -91,12 +277,21 @@ def train(
         seed: seeds the envs and the algorithm.
         log_folder: parent folder of the run folder.
         config_path: YAML of hyperparameters; defaults to ``configs/train/<algo>.yml``.
-        eval_freq: env steps (summed over envs) between evaluations; 0 disables them.
+        hyperparams: hyperparameters that replace the config's.
+        env_kwargs: ``gym.make`` keywords that update the config's ``env_kwargs``.
+        eval_freq: env steps (summed over envs) between evaluations, capped at
+            ``n_timesteps`` so that every run evaluates (and saves a best model) at least
+            once; 0 disables them.
         eval_episodes: episodes per evaluation.
         checkpoint_freq: env steps (summed over envs) between checkpoints; 0 disables them.
         progress_bar: show a progress bar (needs tqdm and rich).
-        vec_env: ``"subproc"`` (one process per env) or ``"dummy"`` (all in this process).
+        vec_env: ``"auto"`` (:func:`choose_vec_env`), ``"subproc"`` (one process per env)
+            or ``"dummy"`` (all in this process).
+        n_cpus: cores the run may use; defaults to this process's CPU affinity.
+        n_threads: torch threads; defaults to ``DEFAULT_TORCH_THREADS``.
         device: torch device.
+        run_dir: the run folder to use (created if absent; it must not hold a run already)
+            instead of a fresh one under ``log_folder``.
         command: the command line to record; defaults to ``sys.argv``.
     """
     from stable_baselines3 import PPO, SAC
@@ -104,22 +299,26 @@ def train(
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
-    import tactile_gym
-
     if env_id not in tactile_gym.ENV_IDS:
         raise ValueError(f"env_id must be one of {tactile_gym.ENV_IDS}, got {env_id!r}")
-    if vec_env not in ("subproc", "dummy"):
-        raise ValueError(f"vec_env must be 'subproc' or 'dummy', got {vec_env!r}")
-    config = load_hyperparameters(algo, env_id, config_path)
-    if n_timesteps is not None:
-        config["n_timesteps"] = int(n_timesteps)
-    if n_envs is not None:
-        config["n_envs"] = int(n_envs)
-    for key in ("n_timesteps", "n_envs"):
-        if not int(config[key]) >= 1:
-            raise ValueError(f"{key} must be >= 1, got {config[key]!r}")
+    if vec_env not in VEC_ENVS:
+        raise ValueError(f"vec_env must be one of {VEC_ENVS}, got {vec_env!r}")
+    config = resolve_config(algo, env_id, config_path, hyperparams, env_kwargs, n_timesteps, n_envs)
+    n_envs = int(config["n_envs"])
+    total_steps = int(config["n_timesteps"])
+    n_cpus = int(n_cpus or available_cpus())
+    if n_cpus < 1:
+        raise ValueError(f"n_cpus must be >= 1, got {n_cpus}")
+    resolved_vec_env = choose_vec_env(n_envs, n_cpus) if vec_env == "auto" else vec_env
+    n_threads = int(n_threads or DEFAULT_TORCH_THREADS)
 
-    run_dir = make_run_dir(Path(log_folder), algo, env_id, seed)
+    if run_dir is None:
+        run_dir = make_run_dir(Path(log_folder), algo, env_id, seed)
+    else:
+        run_dir = Path(run_dir)
+        if (run_dir / "config.yml").exists():
+            raise ValueError(f"run_dir {str(run_dir)!r} already holds a run (config.yml)")
+        run_dir.mkdir(parents=True, exist_ok=True)
     record = {
         "algo": algo,
         "env_id": env_id,
@@ -128,87 +327,110 @@ def train(
         "arguments": {
             "n_timesteps": n_timesteps,
             "n_envs": n_envs,
+            "hyperparams": dict(hyperparams or {}),
+            "env_kwargs": dict(env_kwargs or {}),
             "eval_freq": eval_freq,
             "eval_episodes": eval_episodes,
             "checkpoint_freq": checkpoint_freq,
             "vec_env": vec_env,
             "config_path": str(config_path) if config_path else None,
         },
+        "resources": {"n_cpus": n_cpus, "vec_env": resolved_vec_env, "torch_threads": n_threads},
         "hyperparameters": config,
     }
     with open(run_dir / "config.yml", "w") as f:
         yaml.safe_dump(record, f, sort_keys=False)
 
-    env_kwargs = dict(config.get("env_kwargs") or {})
-    vec_cls = SubprocVecEnv if vec_env == "subproc" and config["n_envs"] > 1 else DummyVecEnv
-    factory = functools.partial(make_env, env_id, **env_kwargs)
-    env = make_vec_env(factory, n_envs=config["n_envs"], seed=seed, vec_env_cls=vec_cls)
+    run_env_kwargs = dict(config.get("env_kwargs") or {})
+    vec_cls = SubprocVecEnv if resolved_vec_env == "subproc" and n_envs > 1 else DummyVecEnv
+    factory = functools.partial(make_env, env_id, **run_env_kwargs)
+    env = make_vec_env(factory, n_envs=n_envs, seed=seed, vec_env_cls=vec_cls)
     eval_env = make_vec_env(factory, n_envs=1, seed=seed + 10_000)
-    if config.get("normalize"):
-        env = VecNormalize(env, gamma=config.get("gamma", 0.99))
-        eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
-
-    algo_kwargs = {k: v for k, v in config.items() if k not in RUN_KEYS}
-    algo_cls = {"ppo": PPO, "sac": SAC}[algo]
-    model = algo_cls(
-        config["policy"],
-        env,
-        seed=seed,
-        device=device,
-        tensorboard_log=str(run_dir / "tensorboard"),
-        verbose=0,
-        **algo_kwargs,
-    )
+    normalize = config.get("normalize", False)
+    if normalize:
+        normalize_kwargs = normalize if isinstance(normalize, dict) else {}
+        normalize_kwargs = {"gamma": config.get("gamma", 0.99), **normalize_kwargs}
+        env = VecNormalize(env, **normalize_kwargs)
+        eval_kwargs = {k: v for k, v in normalize_kwargs.items() if k != "norm_reward"}
+        eval_env = VecNormalize(eval_env, training=False, norm_reward=False, **eval_kwargs)
 
     callbacks = []
-    per_env = max(config["n_envs"], 1)
     if eval_freq > 0:
         callbacks.append(
             EvalCallback(
                 eval_env,
                 n_eval_episodes=eval_episodes,
-                eval_freq=max(eval_freq // per_env, 1),
+                eval_freq=max(min(eval_freq, total_steps) // n_envs, 1),
                 best_model_save_path=str(run_dir),
                 log_path=str(run_dir / "eval"),
                 deterministic=True,
+                callback_on_new_best=_save_vecnormalize_on_best(
+                    vecnormalize_path(run_dir / "best_model.zip")
+                )
+                if normalize
+                else None,
             )
         )
     if checkpoint_freq > 0:
         callbacks.append(
             CheckpointCallback(
-                save_freq=max(checkpoint_freq // per_env, 1),
+                save_freq=max(checkpoint_freq // n_envs, 1),
                 save_path=str(run_dir / "checkpoints"),
                 save_vecnormalize=True,
             )
         )
     try:
-        model.learn(
-            total_timesteps=int(config["n_timesteps"]),
-            callback=callbacks,
-            progress_bar=progress_bar,
-        )
+        with torch_threads(n_threads):
+            model = {"ppo": PPO, "sac": SAC}[algo](
+                config["policy"],
+                env,
+                seed=seed,
+                device=device,
+                tensorboard_log=str(run_dir / "tensorboard"),
+                verbose=0,
+                **algo_kwargs(config),
+            )
+            model.learn(total_timesteps=total_steps, callback=callbacks, progress_bar=progress_bar)
         model.save(run_dir / "final_model")
         if isinstance(env, VecNormalize):
-            env.save(str(run_dir / "vecnormalize.pkl"))
+            env.save(str(vecnormalize_path(run_dir / "final_model.zip")))
     finally:
         env.close()
         eval_env.close()
     return run_dir
 
 
+class KeyValue(argparse.Action):
+    """``key:value`` pairs into a dict; each value is read as YAML (``3e-4``, ``[64, 64]``,
+    ``flat``, ``{a: 1}``), like rl_zoo3's ``--env-kwargs``/``--hyperparams`` without eval."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        pairs = {}
+        for item in values:
+            key, sep, value = item.partition(":")
+            if not sep or not key:
+                raise argparse.ArgumentError(self, f"expected key:value, got {item!r}")
+            pairs[key] = yaml.safe_load(value)
+        setattr(namespace, self.dest, pairs)
+
+
 def main(argv: list[str] | None = None) -> Path:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--algo", choices=ALGOS, default="ppo")
-    parser.add_argument("--env", default="tactile_gym/HingeProbe-v0")
+    parser.add_argument("--env", default=DEFAULT_ENV_ID, help=f"one of {tactile_gym.ENV_IDS}")
     parser.add_argument("--n-timesteps", type=int, default=None)
     parser.add_argument("--n-envs", type=int, default=None)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--log-folder", default="runs")
-    parser.add_argument("--config", type=Path, default=None)
+    parser.add_argument("--config", default=None, help="preset name or YAML path")
+    parser.add_argument("--hyperparams", nargs="+", action=KeyValue, default={})
+    parser.add_argument("--env-kwargs", nargs="+", action=KeyValue, default={})
     parser.add_argument("--eval-freq", type=int, default=10_000)
     parser.add_argument("--eval-episodes", type=int, default=5)
     parser.add_argument("--checkpoint-freq", type=int, default=50_000)
-    parser.add_argument("--vec-env", choices=("subproc", "dummy"), default="subproc")
+    parser.add_argument("--vec-env", choices=VEC_ENVS, default="auto")
+    parser.add_argument("--n-cpus", type=int, default=None, help="cores the run may use")
+    parser.add_argument("--torch-threads", type=int, default=None)
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--no-progress-bar", action="store_true")
     args = parser.parse_args(argv)
@@ -220,11 +442,15 @@ def main(argv: list[str] | None = None) -> Path:
         seed=args.seed,
         log_folder=args.log_folder,
         config_path=args.config,
+        hyperparams=args.hyperparams,
+        env_kwargs=args.env_kwargs,
         eval_freq=args.eval_freq,
         eval_episodes=args.eval_episodes,
         checkpoint_freq=args.checkpoint_freq,
         progress_bar=not args.no_progress_bar,
         vec_env=args.vec_env,
+        n_cpus=args.n_cpus,
+        n_threads=args.torch_threads,
         device=args.device,
         command=shlex.join(["python", "-m", "agents.train", *(argv or sys.argv[1:])]),
     )

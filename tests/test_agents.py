@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 
 import gymnasium as gym
 import numpy as np
@@ -67,27 +68,144 @@ TINY = {
 }
 
 
-@pytest.mark.parametrize("algo", ["ppo", "sac"])
-def test_training_smoke(tmp_path, algo):
-    pytest.importorskip("stable_baselines3")
+def _tiny_config(tmp_path, algo: str):
     config = tmp_path / f"{algo}.yml"
     hyper = {"policy": "MultiInputPolicy", "n_timesteps": 64, "n_envs": 1, "normalize": True}
     config.write_text(yaml.safe_dump({"default": {**hyper, **TINY[algo]}}))
+    return config
+
+
+@pytest.fixture(scope="module")
+def flat_ppo_run(tmp_path_factory):
+    """A tiny PPO run on flat observations, with an evaluation (so a best model) and a
+    checkpoint, through the command line."""
+    pytest.importorskip("stable_baselines3")
+    tmp_path = tmp_path_factory.mktemp("flat_ppo")
+    return train.main(
+        ["--algo", "ppo", "--n-timesteps", "64", "--n-envs", "2", "--log-folder", str(tmp_path),
+         "--eval-episodes", "1", "--checkpoint-freq", "32", "--no-progress-bar",
+         "--config", str(_tiny_config(tmp_path, "ppo")),
+         "--env-kwargs", "observation_mode:flat", "--hyperparams", "policy:MlpPolicy"]
+    )  # fmt: skip
+
+
+def test_training_smoke_sac_dict_observations(tmp_path):
+    pytest.importorskip("stable_baselines3")
     run_dir = train.main(
-        ["--algo", algo, "--n-timesteps", "64", "--n-envs", "2", "--log-folder", str(tmp_path),
-         "--eval-freq", "0", "--checkpoint-freq", "0", "--no-progress-bar", "--config",
-         str(config)]
+        ["--algo", "sac", "--n-timesteps", "64", "--n-envs", "2", "--log-folder", str(tmp_path),
+         "--eval-freq", "0", "--checkpoint-freq", "0", "--no-progress-bar", "--vec-env",
+         "subproc", "--config", str(_tiny_config(tmp_path, "sac"))]
     )  # fmt: skip
     record = yaml.safe_load((run_dir / "config.yml").read_text())
     # Two envs run in worker processes, which must register the ids themselves.
     assert record["hyperparameters"]["n_envs"] == 2
+    assert record["resources"]["vec_env"] == "subproc"
     assert record["hyperparameters"]["n_timesteps"] == 64
     assert record["command"].startswith("python -m agents.train")
     assert (run_dir / "final_model.zip").exists()
     assert (run_dir / "vecnormalize.pkl").exists()
-    model = str(run_dir / "final_model.zip")
-    summaries = evaluate.evaluate([model], episodes=1, out=tmp_path / "eval", plot=False)
-    assert summaries[f"{algo} final_model"]["episodes"] == 1
+    summaries = evaluate.evaluate([str(run_dir / "final_model.zip")], episodes=1, plot=False,
+                                  out=tmp_path / "eval")  # fmt: skip
+    (label,) = summaries
+    assert label == f"{run_dir.name}/final_model"
+
+
+def test_training_records_resolved_run(flat_ppo_run):
+    record = yaml.safe_load((flat_ppo_run / "config.yml").read_text())
+    hyper = record["hyperparameters"]
+    assert hyper["env_kwargs"] == {"observation_mode": "flat"}
+    assert hyper["policy"] == "MlpPolicy"
+    # 2 cores or fewer: the envs share them with the learner, so they run in-process.
+    if train.available_cpus() <= 2:
+        assert record["resources"]["vec_env"] == "dummy"
+    assert record["resources"]["torch_threads"] == train.DEFAULT_TORCH_THREADS
+
+
+def test_short_run_saves_best_model_with_its_statistics(flat_ppo_run):
+    # 64 steps is below the default eval_freq (10,000): the run still evaluates once.
+    assert (flat_ppo_run / "best_model.zip").exists()
+    assert (flat_ppo_run / "eval" / "evaluations.npz").exists()
+    best_stats = train.vecnormalize_path(flat_ppo_run / "best_model.zip")
+    assert best_stats == flat_ppo_run / "best_model_vecnormalize.pkl"
+    assert best_stats.exists()
+    checkpoint = flat_ppo_run / "checkpoints" / "rl_model_32_steps.zip"
+    assert checkpoint.exists()
+    assert train.vecnormalize_path(checkpoint).exists()
+
+
+def test_model_uses_the_statistics_saved_with_it(flat_ppo_run, tmp_path):
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    env = train.make_env(train.DEFAULT_ENV_ID, observation_mode="flat")
+    checkpoint = flat_ppo_run / "checkpoints" / "rl_model_32_steps.zip"
+    for model in (flat_ppo_run / "best_model.zip", checkpoint, flat_ppo_run / "final_model.zip"):
+        policy = evaluate.ModelPolicy(model, env)
+        saved = VecNormalize.load(str(train.vecnormalize_path(model)), DummyVecEnv([lambda: env]))
+        np.testing.assert_array_equal(policy.normalizer.obs_rms.mean, saved.obs_rms.mean)
+        assert policy.normalizer.obs_rms.count == saved.obs_rms.count
+    # The checkpoint at 32 steps saw fewer observations than the final model.
+    final = evaluate.ModelPolicy(flat_ppo_run / "final_model.zip", env).normalizer
+    early = evaluate.ModelPolicy(checkpoint, env).normalizer
+    assert early.obs_rms.count < final.obs_rms.count
+    # Without its own statistics, a normalised model is refused, not scaled with others'.
+    copy = tmp_path / "run"
+    shutil.copytree(flat_ppo_run, copy)
+    (copy / "best_model_vecnormalize.pkl").unlink()
+    with pytest.raises(ValueError, match="best_model_vecnormalize.pkl"):
+        evaluate.ModelPolicy(copy / "best_model.zip", env)
+    env.close()
+
+
+def test_evaluation_labels_and_env_kwargs_per_run(flat_ppo_run, tmp_path):
+    # Two seeds' runs: the same file names, in two run folders.
+    other = flat_ppo_run.parent / (flat_ppo_run.name.replace("_s0_", "_s1_"))
+    shutil.copytree(flat_ppo_run, other)
+    models = [str(flat_ppo_run / "final_model.zip"), str(other / "final_model.zip"),
+              str(flat_ppo_run / "best_model.zip"), "random"]  # fmt: skip
+    summaries = evaluate.evaluate(models, episodes=1, out=tmp_path, plot=False)
+    assert list(summaries) == [
+        f"{flat_ppo_run.name}/final_model",
+        f"{other.name}/final_model",
+        f"{flat_ppo_run.name}/best_model",
+        "random",
+    ]
+    data = json.loads((tmp_path / "evaluation.json").read_text())
+    # The models ran on flat observations, as they were trained; random on the default.
+    policies = data["policies"]
+    assert policies[f"{other.name}/final_model"]["env_kwargs"] == {"observation_mode": "flat"}
+    assert policies["random"]["env_kwargs"] == {}
+    assert data["env_id"] == train.DEFAULT_ENV_ID
+    with pytest.raises(ValueError, match="listed once"):
+        evaluate.policy_labels([models[0], models[0]])
+
+
+def test_policy_labels_grow_until_unique(tmp_path):
+    for sweep in ("a", "b"):
+        run = tmp_path / sweep / "ppo" / "HingeProbe-v0_s0"
+        run.mkdir(parents=True)
+        (run / "final_model.zip").touch()
+    labels = evaluate.policy_labels(
+        [str(tmp_path / s / "ppo" / "HingeProbe-v0_s0" / "final_model.zip") for s in ("a", "b")]
+    )
+    assert labels == ["a/ppo/HingeProbe-v0_s0/final_model", "b/ppo/HingeProbe-v0_s0/final_model"]
+
+
+def test_vecnormalize_paths():
+    assert train.vecnormalize_path("r/final_model.zip").as_posix() == "r/vecnormalize.pkl"
+    assert train.vecnormalize_path("r/best_model.zip").as_posix() == "r/best_model_vecnormalize.pkl"
+    checkpoint = train.vecnormalize_path("r/checkpoints/rl_model_500_steps.zip")
+    assert checkpoint.as_posix() == "r/checkpoints/rl_model_vecnormalize_500_steps.pkl"
+
+
+def test_vec_env_choice():
+    # Envs that would only share the cores with the learner run in-process.
+    assert train.choose_vec_env(n_envs=2, n_cpus=2) == "dummy"
+    assert train.choose_vec_env(n_envs=2, n_cpus=1) == "dummy"
+    assert train.choose_vec_env(n_envs=1, n_cpus=16) == "dummy"
+    assert train.choose_vec_env(n_envs=2, n_cpus=3) == "subproc"
+    assert train.choose_vec_env(n_envs=8, n_cpus=16) == "subproc"
+    with pytest.raises(ValueError, match="vec_env"):
+        train.train(vec_env="forkserver")
 
 
 def test_hyperparameters_resolve_per_env():
@@ -96,6 +214,96 @@ def test_hyperparameters_resolve_per_env():
     assert config["n_timesteps"] > default["n_timesteps"]
     with pytest.raises(ValueError, match="algo"):
         train.load_hyperparameters("dqn", "tactile_gym/HingeProbe-v0")
+
+
+def test_resolve_config_overrides_and_rejects():
+    config = train.resolve_config(
+        "ppo", train.DEFAULT_ENV_ID, hyperparams={"learning_rate": "lin_1e-3"},
+        env_kwargs={"observation_mode": "flat"}, n_timesteps=100, n_envs=3,
+    )  # fmt: skip
+    assert (config["n_timesteps"], config["n_envs"]) == (100, 3)
+    assert config["env_kwargs"] == {"observation_mode": "flat"}
+    schedule = train.algo_kwargs(config)["learning_rate"]
+    assert schedule(1.0) == pytest.approx(1e-3) and schedule(0.5) == pytest.approx(5e-4)
+    with pytest.raises(ValueError, match="frame_stack"):
+        train.resolve_config("ppo", train.DEFAULT_ENV_ID, hyperparams={"frame_stack": 4})
+    with pytest.raises(ValueError, match="normalize"):
+        train.resolve_config("ppo", train.DEFAULT_ENV_ID, hyperparams={"normalize": "yes"})
+    with pytest.raises(ValueError, match="learning_rate"):
+        train.algo_kwargs({"learning_rate": "exp_1e-3"})
+    with pytest.raises(ValueError, match="n_envs"):
+        train.resolve_config("ppo", train.DEFAULT_ENV_ID, n_envs=0)
+
+
+@pytest.mark.parametrize("env_id", tactile_gym.ENV_IDS)
+@pytest.mark.parametrize("algo", train.ALGOS)
+def test_rl_zoo3_reads_our_hyperparameters(algo, env_id, tmp_path):
+    """rl_zoo3 reads the env's entry alone: it must be complete and mean what ours means."""
+    import argparse
+    import inspect
+
+    pytest.importorskip("rl_zoo3")
+    from rl_zoo3.exp_manager import ExperimentManager
+    from stable_baselines3 import PPO, SAC
+
+    path = str(preset_path("train", algo))
+    manager = ExperimentManager(argparse.Namespace(), algo, env_id, str(tmp_path), config=path,
+                                verbose=0)  # fmt: skip
+    hyperparams, _ = manager.read_hyperparameters()
+    kwargs, *_ = manager._preprocess_hyperparams(dict(hyperparams))
+    ours = train.load_hyperparameters(algo, env_id)
+    assert hyperparams == ours
+    assert manager.n_timesteps == ours["n_timesteps"]
+    assert manager.n_envs == ours["n_envs"]
+    assert manager.normalize == ours["normalize"]
+    assert manager.env_kwargs == ours.get("env_kwargs", {})
+    constructor = inspect.signature({"ppo": PPO, "sac": SAC}[algo]).parameters
+    assert set(kwargs) <= set(constructor)
+    assert set(train.algo_kwargs(ours)) | {"policy"} == set(kwargs)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("algo", train.ALGOS)
+def test_rl_zoo3_trains_with_our_config(algo, tmp_path):
+    import subprocess
+    import sys
+
+    pytest.importorskip("rl_zoo3")
+    tiny = [f"{k}:{v}" for k, v in TINY[algo].items()]
+    command = [sys.executable, "-m", "rl_zoo3.train", "--algo", algo, "--env",
+               train.DEFAULT_ENV_ID, "--gym-packages", "tactile_gym", "-conf",
+               str(preset_path("train", algo)), "-n", "64", "--eval-freq", "-1", "-f",
+               str(tmp_path), "-params", *tiny]  # fmt: skip
+    result = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-3000:]
+    (model,) = (tmp_path / algo).glob("*/*.zip")
+    assert (model.parent / model.stem / "vecnormalize.pkl").exists()
+    # agents.evaluate reads rl_zoo3's run layout too.
+    summaries = evaluate.evaluate([str(model)], episodes=1, out=tmp_path / "eval", plot=False)
+    assert summaries[f"{model.parent.name}/{model.stem}"]["episodes"] == 1
+
+
+def test_model_run_reads_rl_zoo3_layout(tmp_path):
+    from collections import OrderedDict
+
+    run_dir = tmp_path / "ppo" / "tactile_gym-HingeProbe-v0_1"
+    params = run_dir / "tactile_gym-HingeProbe-v0"
+    params.mkdir(parents=True)
+    args = OrderedDict(
+        algo="sac", env=train.DEFAULT_ENV_ID, env_kwargs={"observation_mode": "flat"}
+    )
+    (params / "args.yml").write_text(yaml.dump(args))  # rl_zoo3 dumps with the Python tag
+    (params / "config.yml").write_text(yaml.dump(OrderedDict(normalize=True, n_envs=2)))
+    for name in ("tactile_gym-HingeProbe-v0", "best_model", "rl_model_64_steps"):
+        (run_dir / f"{name}.zip").touch()
+    run = evaluate.model_run(run_dir / "tactile_gym-HingeProbe-v0.zip")
+    assert (run["algo"], run["env_id"], run["normalize"]) == ("sac", train.DEFAULT_ENV_ID, True)
+    assert run["env_kwargs"] == {"observation_mode": "flat"}
+    assert run["vecnormalize"] == params / "vecnormalize.pkl"
+    checkpoint = evaluate.model_run(run_dir / "rl_model_64_steps.zip")["vecnormalize"]
+    assert checkpoint == run_dir / "rl_model_vecnormalize_64_steps.pkl"
+    # rl_zoo3 saves no statistics with its best model: evaluating it is refused, not guessed.
+    assert not evaluate.model_run(run_dir / "best_model.zip")["vecnormalize"].exists()
 
 
 def test_evaluation_writes_json(tmp_path):
@@ -110,9 +318,49 @@ def test_evaluation_writes_json(tmp_path):
         assert len(data["episodes_detail"][name]) == 2
 
 
+def test_evaluation_json_is_strict(tmp_path):
+    # Random actions never come within 5 mm: the mean step to 5 mm is undefined.
+    summaries = evaluate.evaluate(["random"], episodes=1, out=tmp_path, plot=False)
+    assert np.isnan(summaries["random"]["steps_to_5mm_mean"])
+
+    def reject(constant):
+        raise ValueError(f"non-standard JSON constant {constant}")
+
+    data = json.loads((tmp_path / "evaluation.json").read_text(), parse_constant=reject)
+    assert data["summaries"]["random"]["steps_to_5mm_mean"] is None
+    assert "| - |" in evaluate.markdown_table(summaries)
+
+
+def test_episode_chunks_match_a_serial_run():
+    """Each episode depends on its seed alone, so workers given any chunks of the seeds
+    reproduce a serial run exactly (what agents.evaluate --workers relies on)."""
+    assert evaluate.chunks([1, 2, 3, 4, 5], 2) == [[1, 2], [3, 4, 5]]
+    assert evaluate.chunks([1, 2], 5) == [[1], [2]]
+    for name, seeds in (("random", [5, 6, 7]), ("scripted", [5, 6])):
+        # 60 steps take the scripted policy through its approach, press and slide.
+        spec = evaluate.PolicySpec(name, name, train.DEFAULT_ENV_ID, {"max_episode_steps": 60})
+        serial = evaluate.run_episodes(spec, seeds)
+        parts = evaluate.run_episodes(spec, seeds[1:]) + evaluate.run_episodes(spec, seeds[:1])
+        assert [r.seed for r in parts] == seeds[1:] + seeds[:1]
+        assert parts[-1:] + parts[:-1] == serial
+
+
 def test_evaluation_rejects_unknown_policy(tmp_path):
     with pytest.raises(ValueError, match="policy"):
         evaluate.evaluate(["nonexistent_policy"], episodes=1, out=tmp_path)
+
+
+def test_core_never_imports_ray():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, gymnasium as gym, tactile_gym\n"
+        "import agents.train, agents.evaluate\n"
+        "env = gym.make(tactile_gym.ENV_IDS[0]); env.reset(seed=0); env.close()\n"
+        "assert 'ray' not in sys.modules, 'ray was imported'\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
 
 
 def test_paper_reproduction_reduced(tmp_path):

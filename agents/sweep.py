@@ -1,0 +1,449 @@
+"""Run a sweep of train + evaluate jobs on Ray and aggregate it across seeds.
+
+    python -m agents.sweep configs/sweeps/smoke.yml               # embedded Ray, this machine
+    python -m agents.sweep baseline --address auto                # join a running cluster
+    python -m agents.sweep configs/sweeps/baseline.yml --dry-run  # list the jobs
+
+A sweep file (``configs/sweeps/*.yml``) names the env ids (or ``all``), the algorithms, the
+seeds, the training budgets, the held-out evaluation (seed, episodes, which model), the
+``agents.train`` arguments, hyperparameter overrides by algorithm and ``env_kwargs``. Every
+(env id, algo, seed) is one job: ``agents.train`` then ``agents.evaluate`` in one Ray task that
+declares ``cpus_per_job`` CPUs (``agents.train`` sizes its vec env and torch threads to them).
+
+Jobs write to ``<log_folder>/<sweep name>/<algo>/<env>_s<seed>/``: ``job.json`` (the job's
+settings), ``job.log`` (its output), the run (``config.yml``, models, ``eval/``, TensorBoard
+logs) and ``evaluation/evaluation.json``. A job whose folder holds an evaluation made with
+the same settings is finished and is not run again, so rerunning a sweep resumes it. A job
+that fails is retried once, then reported with its error (``error.txt`` in its folder); the
+sweep goes on with the others and exits with status 1. The sweep folder gets ``results.md``
+and ``results.json`` (:mod:`agents.aggregate`) and ``learning_curve_<env>.png``.
+
+With ``--address`` from a repository checkout, the ``agents`` package is shipped to the
+cluster's workers; every node needs ``tactile_gym`` with the ``[train,sweep]`` extras
+installed, and on more than one node the log folder must be on a shared filesystem (the
+driver reads the runs' folders to resume, to show which jobs run and to aggregate).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import shutil
+import sys
+import time
+import traceback
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+import tactile_gym
+from tactile_gym.presets import load_yaml, preset_path
+
+from .train import ALGOS, load_hyperparameters
+
+SWEEP_KEYS = {
+    "name": "folder name of the sweep (default: the file's stem)",
+    "log_folder": "parent folder of the sweep folder (default: runs/sweeps)",
+    "env_ids": "list of env ids, or 'all' for tactile_gym.ENV_IDS",
+    "algos": f"list of algorithms from {ALGOS}",
+    "seeds": "list of training seeds, or a count n for 0..n-1",
+    "budgets": "env steps: one number, a mapping algo -> number, or null for the train YAML's",
+    "evaluation": "mapping: episodes, seed (first held-out seed), model (final_model|best_model)",
+    "train": "mapping of agents.train arguments: n_envs, eval_freq, eval_episodes, "
+    "checkpoint_freq, config_path",
+    "overrides": "mapping algo -> hyperparameters over configs/train/<algo>.yml",
+    "env_kwargs": "gym.make keywords for every job",
+    "cpus_per_job": "CPUs each job declares to Ray (default 1)",
+}
+TRAIN_ARGS = ("n_envs", "eval_freq", "eval_episodes", "checkpoint_freq", "config_path")
+EVALUATION_DEFAULTS = {"episodes": 20, "seed": 1000, "model": "final_model"}
+MODELS = ("final_model", "best_model")
+
+
+@dataclass(frozen=True)
+class Job:
+    """One train + evaluate run of a sweep."""
+
+    env_id: str
+    algo: str
+    seed: int
+    n_timesteps: int
+    hyperparams: dict = field(default_factory=dict)
+    env_kwargs: dict = field(default_factory=dict)
+    train: dict = field(default_factory=dict)
+    evaluation: dict = field(default_factory=dict)
+    cpus: float = 1
+
+    @property
+    def key(self) -> str:
+        """``<algo>/<env name>_s<seed>``: the job's folder inside the sweep folder."""
+        return f"{self.algo}/{self.env_id.split('/')[-1]}_s{self.seed}"
+
+    def spec(self) -> dict[str, Any]:
+        """The settings that define the job's results (compared when resuming)."""
+        return {
+            "env_id": self.env_id,
+            "algo": self.algo,
+            "seed": self.seed,
+            "n_timesteps": self.n_timesteps,
+            "hyperparams": self.hyperparams,
+            "env_kwargs": self.env_kwargs,
+            "train": self.train,
+            "evaluation": self.evaluation,
+        }
+
+
+def load_sweep(sweep: str | Path | dict) -> dict[str, Any]:
+    """A sweep config from a preset name, a YAML path or a mapping, checked, with defaults.
+
+    Raises:
+        ValueError: an unknown key or a bad value, naming it and what is allowed.
+    """
+    if isinstance(sweep, dict):
+        config = dict(sweep)
+        config.setdefault("name", "sweep")
+    else:
+        path = preset_path("sweeps", sweep)
+        config = load_yaml(path)
+        config.setdefault("name", path.stem)
+    unknown = sorted(set(config) - set(SWEEP_KEYS))
+    if unknown:
+        allowed = "\n".join(f"  {k}: {v}" for k, v in SWEEP_KEYS.items())
+        raise ValueError(f"unknown sweep keys {unknown}; allowed:\n{allowed}")
+    config.setdefault("log_folder", "runs/sweeps")
+    env_ids = config.get("env_ids", "all")
+    config["env_ids"] = list(tactile_gym.ENV_IDS) if env_ids == "all" else list(env_ids)
+    for env_id in config["env_ids"]:
+        if env_id not in tactile_gym.ENV_IDS:
+            raise ValueError(f"env_ids: each must be one of {tactile_gym.ENV_IDS}, got {env_id!r}")
+    config["algos"] = list(config.get("algos") or ["ppo"])
+    for algo in config["algos"]:
+        if algo not in ALGOS:
+            raise ValueError(f"algos: each must be one of {ALGOS}, got {algo!r}")
+    seeds = config.get("seeds", 1)
+    config["seeds"] = list(range(seeds)) if isinstance(seeds, int) else [int(s) for s in seeds]
+    if not config["seeds"] or len(set(config["seeds"])) != len(config["seeds"]):
+        raise ValueError(f"seeds must be a count >= 1 or distinct integers, got {seeds!r}")
+    budgets = config.get("budgets")
+    if isinstance(budgets, dict):
+        missing = sorted(set(config["algos"]) - set(budgets))
+        if missing:
+            raise ValueError(f"budgets has no entry for {missing}; give one per algo or a number")
+    elif budgets is not None and not (isinstance(budgets, int) and budgets >= 1):
+        raise ValueError(f"budgets must be null, an integer >= 1 or a mapping, got {budgets!r}")
+    evaluation = {**EVALUATION_DEFAULTS, **(config.get("evaluation") or {})}
+    if set(evaluation) - set(EVALUATION_DEFAULTS):
+        raise ValueError(
+            f"evaluation keys must be among {sorted(EVALUATION_DEFAULTS)}, got {sorted(evaluation)}"
+        )
+    if evaluation["model"] not in MODELS:
+        raise ValueError(f"evaluation.model must be one of {MODELS}, got {evaluation['model']!r}")
+    config["evaluation"] = evaluation
+    train = dict(config.get("train") or {})
+    if set(train) - set(TRAIN_ARGS):
+        raise ValueError(f"train keys must be among {TRAIN_ARGS}, got {sorted(train)}")
+    config["train"] = train
+    overrides = dict(config.get("overrides") or {})
+    if set(overrides) - set(ALGOS):
+        raise ValueError(f"overrides must be keyed by algo {ALGOS}, got {sorted(overrides)}")
+    config["overrides"] = overrides
+    config["env_kwargs"] = dict(config.get("env_kwargs") or {})
+    config["cpus_per_job"] = config.get("cpus_per_job", 1)
+    if not config["cpus_per_job"] > 0:
+        raise ValueError(f"cpus_per_job must be > 0, got {config['cpus_per_job']!r}")
+    return config
+
+
+def expand(config: dict[str, Any]) -> list[Job]:
+    """The sweep's jobs, env id by algo by seed.
+
+    Each job carries its complete hyperparameters (the training YAML read here, then the
+    sweep's overrides), so that workers do not depend on their own copy of the YAML and a
+    changed YAML shows up as changed settings when a sweep resumes.
+    """
+    jobs = []
+    config_path = config["train"].get("config_path")
+    for env_id in config["env_ids"]:
+        for algo in config["algos"]:
+            hyperparams = load_hyperparameters(algo, env_id, config_path)
+            hyperparams.update(config["overrides"].get(algo) or {})
+            budget = config.get("budgets")
+            budget = budget.get(algo) if isinstance(budget, dict) else budget
+            for seed in config["seeds"]:
+                jobs.append(
+                    Job(
+                        env_id=env_id,
+                        algo=algo,
+                        seed=seed,
+                        n_timesteps=int(budget or hyperparams["n_timesteps"]),
+                        hyperparams=dict(hyperparams),
+                        env_kwargs=dict(config["env_kwargs"]),
+                        train=dict(config["train"]),
+                        evaluation=dict(config["evaluation"]),
+                        cpus=config["cpus_per_job"],
+                    )
+                )
+    return jobs
+
+
+def job_state(job: Job, run_dir: Path) -> str:
+    """``"finished"`` (an evaluation made with these settings), ``"conflict"`` (an
+    evaluation made with other settings) or ``"todo"``."""
+    try:
+        record = json.loads((run_dir / "job.json").read_text())
+        json.loads((run_dir / "evaluation" / "evaluation.json").read_text())
+    except (OSError, ValueError):
+        return "todo"
+    return "finished" if record.get("spec") == _jsonable(job.spec()) else "conflict"
+
+
+def _jsonable(value):
+    return json.loads(json.dumps(value))
+
+
+def run_job(job: Job, run_dir: str, token: str) -> dict:
+    """Train and evaluate one job in ``run_dir`` (emptied first); what each Ray task runs.
+
+    Returns:
+        The evaluation summary of the job's model.
+    """
+    from .evaluate import evaluate
+    from .train import train
+
+    run_dir = Path(run_dir)
+    if run_dir.exists():
+        shutil.rmtree(run_dir)
+    run_dir.mkdir(parents=True)
+    record = {"spec": job.spec(), "token": token, "started": time.time(), **job.spec()}
+    (run_dir / "job.json").write_text(json.dumps(record, indent=1))
+    train_args = {k: v for k, v in job.train.items() if k != "config_path"}  # in hyperparams
+    with (
+        open(run_dir / "job.log", "w") as log,
+        contextlib.redirect_stdout(log),
+        contextlib.redirect_stderr(log),
+    ):
+        train(
+            algo=job.algo,
+            env_id=job.env_id,
+            n_timesteps=job.n_timesteps,
+            seed=job.seed,
+            hyperparams=job.hyperparams,
+            env_kwargs=job.env_kwargs,
+            n_cpus=max(1, int(job.cpus)),
+            run_dir=run_dir,
+            command=f"python -m agents.sweep (job {job.key})",
+            **train_args,
+        )
+        evaluation = job.evaluation
+        summaries = evaluate(
+            [str(run_dir / f"{evaluation['model']}.zip")],
+            env_id=job.env_id,
+            episodes=int(evaluation["episodes"]),
+            seed=int(evaluation["seed"]),
+            out=run_dir / "evaluation",
+        )
+    (summary,) = summaries.values()
+    return summary
+
+
+class Progress:
+    """Counts of the sweep's jobs, printed as one line when they change (and every
+    ``interval`` seconds)."""
+
+    def __init__(self, name: str, total: int, finished: int, interval: float = 30.0, out=None):
+        self.name, self.total, self.interval = name, total, interval
+        self.counts = {"done": finished, "running": 0, "queued": 0, "failed": 0}
+        self.out = out or sys.stdout
+        self.start = time.monotonic()
+        self._last_line, self._last_time = None, 0.0
+
+    def update(self, **counts) -> None:
+        self.counts.update(counts)
+        c = self.counts
+        line = (
+            f"[sweep {self.name}] {c['done']}/{self.total} done, {c['running']} running, "
+            f"{c['queued']} queued, {c['failed']} failed"
+        )
+        now = time.monotonic()
+        if line != self._last_line or now - self._last_time >= self.interval:
+            elapsed = int(now - self.start)
+            print(f"{line} ({elapsed // 60:02d}:{elapsed % 60:02d})", file=self.out, flush=True)
+            self._last_line, self._last_time = line, now
+
+
+def _error_text(error: BaseException) -> tuple[str, str]:
+    """A one-line summary of a job's error and its full text."""
+    cause = getattr(error, "cause", None) or error
+    lines = str(cause).strip().splitlines() or [""]
+    full = "".join(traceback.format_exception(type(error), error, error.__traceback__))
+    return f"{type(cause).__name__}: {lines[-1]}", full
+
+
+@dataclass
+class SweepReport:
+    """What a sweep did: its folder, the jobs done before and now, the failed ones with
+    their errors, and the aggregated markdown."""
+
+    sweep_dir: Path
+    skipped: list[str]
+    done: list[str]
+    failed: dict[str, str]
+    markdown: str
+
+
+def run_sweep(
+    sweep: str | Path | dict,
+    address: str | None = None,
+    num_cpus: int | None = None,
+    log_folder: str | Path | None = None,
+    retries: int = 1,
+    dry_run: bool = False,
+    plot: bool = True,
+    out=None,
+) -> SweepReport:
+    """Run the sweep's unfinished jobs on Ray, then aggregate every finished one.
+
+    Args:
+        sweep: a preset name, a sweep YAML path or a mapping (see :data:`SWEEP_KEYS`).
+        address: a Ray cluster to join; ``None`` starts Ray embedded in this process.
+        num_cpus: CPUs of the embedded Ray (default: all of this machine's).
+        log_folder: overrides the sweep's ``log_folder``.
+        retries: further attempts of a failed job.
+        dry_run: list the jobs and their state, run nothing.
+        plot: write the learning curves.
+        out: where progress goes (default stdout).
+
+    Raises:
+        ValueError: finished runs in the sweep folder were made with other settings.
+    """
+    out = out or sys.stdout
+    config = load_sweep(sweep)
+    if log_folder is not None:
+        config["log_folder"] = str(log_folder)
+    sweep_dir = Path(config["log_folder"]) / config["name"]
+    jobs = expand(config)
+    states = {job.key: job_state(job, sweep_dir / job.key) for job in jobs}
+    conflicts = sorted(k for k, s in states.items() if s == "conflict")
+    if conflicts:
+        raise ValueError(
+            f"{sweep_dir} holds finished runs made with other settings: {conflicts}; "
+            "give the sweep another name (or log_folder), or delete those runs"
+        )
+    skipped = [j.key for j in jobs if states[j.key] == "finished"]
+    todo = [j for j in jobs if states[j.key] == "todo"]
+    if dry_run:
+        for job in jobs:
+            print(f"{states[job.key]:>8}  {job.key}  ({job.n_timesteps} steps)", file=out)
+        return SweepReport(sweep_dir, skipped, [], {}, "")
+    sweep_dir.mkdir(parents=True, exist_ok=True)
+    (sweep_dir / "sweep.yml").write_text(yaml.safe_dump(config, sort_keys=False))
+
+    done, failed = [], {}
+    if todo:
+        progress = Progress(config["name"], len(jobs), len(skipped), out=out)
+        done, failed = _run_jobs(todo, sweep_dir, config, address, num_cpus, retries, progress)
+    from .aggregate import write_results
+
+    text = write_results(sweep_dir, plot=plot)
+    for key, error in failed.items():
+        print(f"FAILED {key}: {error}  (see {sweep_dir / key / 'error.txt'})", file=out)
+    print(text, file=out)
+    return SweepReport(sweep_dir, skipped, done, failed, text)
+
+
+def _run_jobs(todo, sweep_dir, config, address, num_cpus, retries, progress):
+    from ._ray import ray_session
+
+    out = progress.out
+    token = uuid.uuid4().hex
+    finished_before = progress.counts["done"]
+    done: list[str] = []
+    failed: dict[str, str] = {}
+    attempts = {job.key: 0 for job in todo}
+    with ray_session(address=address, num_cpus=num_cpus) as ray:
+        capacity = ray.cluster_resources().get("CPU", 0)
+        if config["cpus_per_job"] > capacity:
+            raise ValueError(
+                f"cpus_per_job is {config['cpus_per_job']} but the Ray cluster has "
+                f"{capacity:g} CPUs; lower cpus_per_job or give Ray more CPUs (--num-cpus)"
+            )
+        task = ray.remote(run_job).options(num_cpus=config["cpus_per_job"], max_retries=0)
+
+        def submit(job):
+            attempts[job.key] += 1
+            return task.remote(job, str(sweep_dir / job.key), token)
+
+        pending = {submit(job): job for job in todo}
+        try:
+            while pending:
+                ready, _ = ray.wait(list(pending), num_returns=1, timeout=1.0)
+                for ref in ready:
+                    job = pending.pop(ref)
+                    try:
+                        ray.get(ref)
+                        done.append(job.key)
+                    except Exception as error:  # a job's own error, or its worker's death
+                        line, full = _error_text(error)
+                        if attempts[job.key] <= retries:
+                            print(f"job {job.key} failed ({line}); retrying", file=out)
+                            pending[submit(job)] = job
+                        else:
+                            failed[job.key] = line
+                            run_dir = sweep_dir / job.key
+                            run_dir.mkdir(parents=True, exist_ok=True)
+                            (run_dir / "error.txt").write_text(full)
+                running = sum(_started(sweep_dir / j.key, token) for j in pending.values())
+                progress.update(
+                    done=finished_before + len(done),
+                    running=running,
+                    queued=len(pending) - running,
+                    failed=len(failed),
+                )
+        except KeyboardInterrupt:
+            print(
+                f"interrupted: {len(done)} jobs done, {len(pending)} unfinished; "
+                "run the same command again to resume",
+                file=out,
+            )
+            for ref in pending:
+                ray.cancel(ref, force=True)
+            raise
+    return done, failed
+
+
+def _started(run_dir: Path, token: str) -> bool:
+    try:
+        return json.loads((run_dir / "job.json").read_text()).get("token") == token
+    except (OSError, ValueError):
+        return False
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("sweep", help="a sweep YAML path or a preset name (configs/sweeps/)")
+    parser.add_argument("--address", default=None, help="Ray cluster to join, e.g. auto")
+    parser.add_argument("--num-cpus", type=int, default=None, help="CPUs of an embedded Ray")
+    parser.add_argument("--log-folder", default=None)
+    parser.add_argument("--retries", type=int, default=1)
+    parser.add_argument("--dry-run", action="store_true")
+    args = parser.parse_args(argv)
+    try:
+        report = run_sweep(
+            args.sweep,
+            address=args.address,
+            num_cpus=args.num_cpus,
+            log_folder=args.log_folder,
+            retries=args.retries,
+            dry_run=args.dry_run,
+        )
+    except KeyboardInterrupt:
+        return 130
+    return 1 if report.failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

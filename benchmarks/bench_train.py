@@ -1,0 +1,176 @@
+"""Training throughput: env steps/s of ``agents.train``'s set-up, and the env's share of it.
+
+    python benchmarks/bench_train.py                      # PPO, configs/train/ppo.yml, 2 envs
+    python benchmarks/bench_train.py --algo sac --steps 2000
+
+Every case trains the same stable-baselines3 config (the algo's YAML for the env, with its
+``n_envs`` and ``VecNormalize``) for ``--steps`` env steps, after a warm-up that is not timed
+(process start, numba's cache load, the first update's allocations). The *dummy env* has the
+same observation and action spaces and episode length but returns a fixed observation at no
+cost, so its run is SB3's own overhead (rollout bookkeeping, normalisation, the network, the
+updates); measured in the same run, ``1 - t_dummy / t_env`` is the env's share of training
+time. *env only* steps the same vector env with random actions and no learning.
+
+Prints a markdown table. On a shared machine timings vary a lot with the load from elsewhere:
+``--repeats`` runs the cases round-robin and keeps the fastest run of each.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import tactile_gym  # noqa: E402
+from agents import train as train_mod  # noqa: E402
+
+
+class SpacesEnv(gym.Env):
+    """The spaces and episode length of another env, at no cost per step."""
+
+    def __init__(self, observation_space, action_space, max_steps: int) -> None:
+        self.observation_space = observation_space
+        self.action_space = action_space
+        self.observation_space.seed(0)
+        self._obs = self.observation_space.sample()
+        self._max_steps = max_steps
+        self._t = 0
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self._t = 0
+        return self._obs, {}
+
+    def step(self, action):
+        self._t += 1
+        return self._obs, 0.0, False, self._t >= self._max_steps, {}
+
+
+def _factory(env_id: str, env_kwargs: dict, dummy: bool):
+    def make():
+        env = train_mod.make_env(env_id, **env_kwargs)
+        if not dummy:
+            return env
+        spaces_env = SpacesEnv(env.observation_space, env.action_space, env.spec.max_episode_steps)
+        env.close()
+        return spaces_env
+
+    return make
+
+
+def _vec_env(env_id, config, vec_env: str, dummy: bool):
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+
+    cls = SubprocVecEnv if vec_env == "subproc" else DummyVecEnv
+    env = make_vec_env(
+        _factory(env_id, dict(config.get("env_kwargs") or {}), dummy),
+        n_envs=int(config["n_envs"]),
+        seed=0,
+        vec_env_cls=cls,
+    )
+    if config.get("normalize"):
+        env = VecNormalize(env, gamma=config.get("gamma", 0.99))
+    return env
+
+
+def time_training(algo, env_id, config, vec_env, threads, steps, dummy) -> float:
+    """Seconds of ``learn(steps)`` after an untimed warm-up ``learn`` of one rollout."""
+    from stable_baselines3 import PPO, SAC
+
+    env = _vec_env(env_id, config, vec_env, dummy)
+    try:
+        with train_mod.torch_threads(threads):
+            model = {"ppo": PPO, "sac": SAC}[algo](
+                config["policy"], env, seed=0, device="cpu", **train_mod.algo_kwargs(config)
+            )
+            warmup = int(config.get("n_steps", 256)) * int(config["n_envs"])
+            model.learn(warmup)
+            start = time.perf_counter()
+            model.learn(steps, reset_num_timesteps=False)
+            return time.perf_counter() - start
+    finally:
+        env.close()
+
+
+def time_env_only(env_id, config, vec_env, steps) -> float:
+    """Seconds to step the vector env ``steps`` times (summed over envs), random actions."""
+    env = _vec_env(env_id, config, vec_env, dummy=False)
+    try:
+        env.reset()
+        env.action_space.seed(0)
+        n_envs = int(config["n_envs"])
+        actions = lambda: np.stack([env.action_space.sample() for _ in range(n_envs)])  # noqa: E731
+        for _ in range(50):
+            env.step(actions())
+        start = time.perf_counter()
+        for _ in range(steps // n_envs):
+            env.step(actions())
+        return time.perf_counter() - start
+    finally:
+        env.close()
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--algo", choices=train_mod.ALGOS, default="ppo")
+    parser.add_argument("--env", default=train_mod.DEFAULT_ENV_ID, help=str(tactile_gym.ENV_IDS))
+    parser.add_argument("--steps", type=int, default=4096, help="timed env steps per case")
+    parser.add_argument("--n-envs", type=int, default=None)
+    parser.add_argument("--repeats", type=int, default=1)
+    args = parser.parse_args(argv)
+
+    config = train_mod.resolve_config(args.algo, args.env, n_envs=args.n_envs)
+    n_envs, n_cpus = int(config["n_envs"]), train_mod.available_cpus()
+    chosen = train_mod.choose_vec_env(n_envs, n_cpus)
+    other = "subproc" if chosen == "dummy" else "dummy"
+    threads = train_mod.DEFAULT_TORCH_THREADS
+    more = 2 * threads
+    cases = [  # (label, vec env, torch threads, dummy env)
+        (f"env, {chosen} (agents.train's choice), {threads} thread", chosen, threads, False),
+        (f"dummy env, {chosen}, {threads} thread", chosen, threads, True),
+        (f"env, {other}, {threads} thread", other, threads, False),
+        (f"dummy env, {other}, {threads} thread", other, threads, True),
+        (f"env, {chosen}, {more} threads", chosen, more, False),
+    ]
+    # Round-robin over the cases, so that a burst of load from elsewhere hits them all alike;
+    # each case keeps its fastest run.
+    best = [math.inf] * (len(cases) + 1)
+    for _ in range(args.repeats):
+        for i, (_, vec_env, n_threads, dummy) in enumerate(cases):
+            seconds = time_training(
+                args.algo, args.env, config, vec_env, n_threads, args.steps, dummy
+            )
+            best[i] = min(best[i], seconds)
+        best[-1] = min(best[-1], time_env_only(args.env, config, chosen, args.steps))
+    labels = [f"train: {case[0]}" for case in cases] + [f"env only, random actions, {chosen}"]
+    rows = [{"case": label, "seconds": seconds} for label, seconds in zip(labels, best)]
+
+    print(
+        f"{args.algo.upper()} on {args.env}, {n_envs} envs, {args.steps} timed env steps, "
+        f"{n_cpus} cores, best of {args.repeats}\n"
+    )
+    print("| case | env steps/s | ms per env step |\n|---|---:|---:|")
+    for row in rows:
+        rate = args.steps / row["seconds"]
+        print(f"| {row['case']} | {rate:,.0f} | {1e3 / rate:.2f} |")
+    t_env, t_dummy = rows[0]["seconds"], rows[1]["seconds"]
+    print(
+        f"\nenv share of training time ({chosen}): {1.0 - t_dummy / t_env:.0%} "
+        f"(1 - t_dummy / t_env); stepping the env alone takes "
+        f"{rows[-1]['seconds'] / t_env:.0%} of it. {chosen} is {rows[2]['seconds'] / t_env:.2f}x "
+        f"as fast as {other}, {threads} torch thread {rows[4]['seconds'] / t_env:.2f}x as fast "
+        f"as {more}."
+    )
+    return rows
+
+
+if __name__ == "__main__":
+    main()
