@@ -6,6 +6,7 @@ with the contact point sliding along the edge between measurements.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import subprocess
 import sys
@@ -112,20 +113,43 @@ def test_planar_exact_recovery() -> None:
     np.testing.assert_array_equal(est.direction, [0.0, 0.0, 1.0])
 
 
-def test_planar_numpy_and_loop_paths_agree() -> None:
+def _assert_same_estimate(a: AxisEstimate, b: AxisEstimate, rtol: float = 1e-9) -> None:
+    """Every field of two estimates agrees (arrays and floats to rtol, the rest exactly)."""
+    for field in dataclasses.fields(AxisEstimate):
+        va, vb = getattr(a, field.name), getattr(b, field.name)
+        if isinstance(va, (str, bool, int)) or va is None:
+            assert va == vb, field.name
+        else:
+            scale = np.max(np.abs(vb)) if np.size(vb) else 0.0
+            np.testing.assert_allclose(va, vb, rtol=rtol, atol=1e-12 * scale, err_msg=field.name)
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+def test_planar_numpy_and_loop_paths_agree(weighted: bool, monkeypatch) -> None:
     from tactile_gym.estimation import fits
 
     pts, eds = make_planar(np.random.default_rng(1), n=20)
-    w = np.random.default_rng(2).uniform(0.5, 2.0, 20)
+    w = np.random.default_rng(2).uniform(0.5, 2.0, 20) if weighted else None
     fast = fits._planar_fit(pts, eds, w)
-    saved = fits._PLANAR_NUMPY_MIN_N
-    try:
-        fits._PLANAR_NUMPY_MIN_N = 10_000
-        loop = fits._planar_fit(pts, eds, w)
-    finally:
-        fits._PLANAR_NUMPY_MIN_N = saved
-    np.testing.assert_allclose(fast.point, loop.point, atol=1e-12)
-    np.testing.assert_allclose(fast.covariance, loop.covariance, atol=1e-15)
+    monkeypatch.setattr(fits, "_PLANAR_NUMPY_MIN_N", 10_000)
+    loop = fits._planar_fit(pts, eds, w)
+    _assert_same_estimate(loop, fast)
+
+
+@pytest.mark.parametrize("n", [5, 20])
+def test_planar_residual_rms_matches_an_independent_residual(n: int) -> None:
+    """residual_rms and the unweighted covariance from residuals computed here (eq. 16)."""
+    pts, eds = make_planar(np.random.default_rng(3), n=n)
+    est = fit_axis_planar(pts, eds)
+    p, q = est.point[:2]
+    # Signed distance from the axis to each (consistently oriented) edge line minus d.
+    signed = eds[:, 1] * (pts[:, 0] - p) - eds[:, 0] * (pts[:, 1] - q)
+    res = signed - math.copysign(est.distance, np.mean(signed))
+    assert est.residual_rms == pytest.approx(np.sqrt(np.mean(res**2)), rel=1e-9)
+    a = np.column_stack([eds[:, 1], -eds[:, 0], -np.ones(n)])
+    cov = np.linalg.inv(a.T @ a) * (res @ res) / (n - 3)
+    np.testing.assert_allclose(est.covariance[:2, :2], cov[:2, :2], rtol=1e-9)
+    assert est.position_std == pytest.approx(math.sqrt(cov[0, 0] + cov[1, 1]), rel=1e-9)
 
 
 def test_planar_edge_sign_is_resolved_by_continuity() -> None:

@@ -231,7 +231,7 @@ def _planar_fit(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> AxisEsti
     def rss(p: float, q: float, d: float) -> float:
         total = 0.0
         for ex, ey, b in rows:
-            r = b - ey * p + ex * q - d
+            r = b - ey * p + ex * q + d
             total += r * r
         return total
 
