@@ -509,6 +509,48 @@ def test_bad_input_raises_value_error(call) -> None:
         call()
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize(
+    "fit, dims, where",
+    [
+        (fit_axis_planar, 2, "points"),
+        (fit_axis_planar, 2, "edges"),
+        (fit_axis_planar, 3, "edges"),
+        (fit_axis_3d, 3, "points"),
+        (fit_axis_3d, 3, "edges"),
+        (fit_axis_simple, 2, "points"),
+    ],
+)
+def test_inf_is_rejected_like_nan(fit, dims: int, where: str, bad: float) -> None:
+    """A non-finite entry in row 2 is a ValueError naming the input and the row."""
+    p, u, pts, eds = _tilted_case(np.random.default_rng(0), n=6)
+    pts, eds = pts[:, :dims].copy(), eds[:, :dims].copy()
+    {"points": pts, "edges": eds}[where][2, 0] = bad
+    with pytest.raises(ValueError, match=rf"{where} must be finite.*rows \[2\]"):
+        fit(pts) if fit is fit_axis_simple else fit(pts, eds)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_online_rejects_non_finite_values(bad: float) -> None:
+    for mode in ("planar", "3d"):
+        est = JointAxisEstimator(mode)
+        with pytest.raises(ValueError, match="finite"):
+            est.add([0.0, bad, 0.0], [1.0, 0.0, 0.0], 1e-3, 0.01)
+        with pytest.raises(ValueError, match="finite"):
+            est.add([0.0, 0.0, 0.0], [1.0, bad, 0.0], 1e-3, 0.01)
+        with pytest.raises(ValueError, match="edge_std"):
+            est.add([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 1e-3, bad)
+        assert est.n_measurements == 0
+    with pytest.raises(ValueError, match="min_measurements"):
+        JointAxisEstimator(min_measurements=bad)
+
+
+def test_planar_overflow_is_a_value_error() -> None:
+    pts = np.array([[1e308, 0.0], [0.0, 1e308], [-1e308, 1e308]])
+    with pytest.raises(ValueError, match="overflow"):
+        fit_axis_planar(pts, [[1.0, 1.0], [1.0, 0.0], [0.0, 1.0]])
+
+
 def test_axis_error_ignores_direction_sign_and_uses_reference_point() -> None:
     pts, eds = make_planar(np.random.default_rng(0), sigma_x=0, sigma_e=0)
     est = fit_axis_planar(pts, eds)

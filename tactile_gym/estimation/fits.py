@@ -68,11 +68,6 @@ def planar_residual_variance(
     return np.square(point_std) + np.square(lever * edge_std) + _VARIANCE_FLOOR
 
 
-def _planar_xy(points: object, name: str) -> np.ndarray:
-    a = as_points(points, name)
-    return a[:, :2]
-
-
 def fit_axis_planar(
     points: np.ndarray,
     edges: np.ndarray,
@@ -114,32 +109,23 @@ def fit_axis_planar(
         ValueError: on malformed input (shapes, non-finite values, negative weights or stds,
             zero edges, weights given together with stds).
     """
-    x = np.asarray(points, dtype=float)
-    e3 = np.asarray(edges, dtype=float)
-    if x.ndim != 2 or x.shape[1] not in (2, 3):
-        raise ValueError(f"points must have shape (N, 2) or (N, 3), got {x.shape}")
+    x = as_points(points, "points")
     n = x.shape[0]
-    if e3.ndim != 2 or e3.shape[1] not in (2, 3) or e3.shape[0] != n:
-        raise ValueError(f"edges must have shape ({n}, 2) or ({n}, 3), got {e3.shape}")
+    e3 = as_unit_edges(edges, n)
     if (point_std is None) != (edge_std is None):
         raise ValueError("point_std and edge_std must be given together")
     if weights is not None and point_std is not None:
         raise ValueError("give either weights or point_std/edge_std, not both")
     w = None if weights is None else as_weights(weights, n)
-    if resolve_signs and np.isfinite(e3).all():
+    if resolve_signs:
         # Signs from the x-y parts (those the fit uses), applied to the whole edges.
         xy = np.column_stack([e3[:, :2], np.zeros(n)])
         e3 = np.where((np.einsum("ij,ij->i", orient_edges(xy), xy) < 0)[:, None], -e3, e3)
     if point_std is None:
-        est = _planar_fit(x, e3, w)
-        if est is None:
-            _raise_bad_planar_input(x, e3)
-        return est
+        return _checked(_planar_fit(x, e3, w))
     sx = as_stds(point_std, n, "point_std", "m")
     se = as_stds(edge_std, n, "edge_std", "rad")
-    est = _planar_fit(x, e3, None)
-    if est is None:
-        _raise_bad_planar_input(x, e3)
+    est = _checked(_planar_fit(x, e3, None))
     # Predict the residual variances from the current axis and refit; twice is enough for
     # the levers to settle (they change by the axis error, a few mm).
     e2 = _unit_xy_edges(e3)
@@ -147,15 +133,15 @@ def fit_axis_planar(
         if est.degenerate:
             return est
         var = planar_residual_variance(x[:, :2], e2, est.point[:2], sx, se)
-        est = _planar_fit(x, e3, 1.0 / var)
+        est = _checked(_planar_fit(x, e3, 1.0 / var))
     return est
 
 
-def _raise_bad_planar_input(x: np.ndarray, e3: np.ndarray) -> None:
-    """Find and report what made the planar fit fail its finiteness checks."""
-    as_points(x, "points")
-    as_unit_edges(e3, x.shape[0])
-    raise ValueError("points and edges must be finite")  # pragma: no cover
+def _checked(est: AxisEstimate | None) -> AxisEstimate:
+    """The estimate of validated input; None there means that the normal equations overflowed."""
+    if est is None:
+        raise ValueError("points, edges or weights are too large: the normal equations overflow")
+    return est
 
 
 def _unit_xy_edges(e3: np.ndarray) -> np.ndarray:
@@ -177,7 +163,8 @@ _PLANAR_NUMPY_MIN_N = 12
 
 
 def _planar_fit(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> AxisEstimate | None:
-    """Eq. 18-21 on shape-checked arrays; None when an input is non-finite or an edge zero.
+    """Eq. 18-21 on shape-checked arrays; None when an input is non-finite, an edge zero or
+    the arithmetic overflows.
 
     w holds inverse variances (rows with w = 0 are dropped). The normal equations
     ``A^T W A (p, q, d) = A^T W b`` are accumulated and solved in closed form. This is the
@@ -288,10 +275,11 @@ def _planar_solve(
     n: int,
     w: np.ndarray | None,
     rss_at: object,
-) -> AxisEstimate:
+) -> AxisEstimate | None:
     """Solve the 3x3 normal equations by cofactors and assemble the estimate.
 
-    ``rss_at(p, q, d)`` returns the unweighted residual sum of squares.
+    ``rss_at(p, q, d)`` returns the unweighted residual sum of squares. None when the
+    solution or its covariance overflows (inputs of order 1e150 m and beyond).
     """
     if n < 3:
         return degenerate_estimate("planar", n, planar=True)
@@ -319,6 +307,9 @@ def _planar_solve(
     q = (c01 * r0 + c11 * r1 + c12 * r2) * inv_det
     d = (c02 * r0 + c12 * r1 + c22 * r2) * inv_det
     rss = rss_at(p, q, d)
+    size = abs(c00) + abs(c01) + abs(c02) + abs(c11) + abs(c12) + abs(c22)
+    if not math.isfinite(p + q + d + rss + size * inv_det):
+        return None
     if w is not None:
         scale = 1.0
     elif n > 3:
@@ -376,7 +367,7 @@ def fit_axis_simple(points: np.ndarray) -> AxisEstimate:
     Raises:
         ValueError: on malformed input.
     """
-    x = _planar_xy(points, "points")
+    x = as_points(points, "points")[:, :2]
     n = x.shape[0]
     if n < 3:
         return degenerate_estimate("simple", n, planar=True)

@@ -70,7 +70,8 @@ class JointAxisEstimator:
         default_min = 3 if mode == "planar" else 4
         if min_measurements is None:
             min_measurements = default_min
-        if int(min_measurements) != min_measurements or min_measurements < 3:
+        # float() first: inf and NaN must fail here like any non-integer, not in int().
+        if not (float(min_measurements).is_integer() and min_measurements >= 3):
             raise ValueError(f"min_measurements must be an integer >= 3, got {min_measurements!r}")
         self.mode = mode
         self.loss = loss
