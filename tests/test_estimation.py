@@ -308,6 +308,33 @@ def test_3d_nees_is_calibrated() -> None:
     assert abs(np.mean(nees) - 4.0) <= 0.3 * 4.0
 
 
+def test_3d_keeps_edge_signs_where_either_sign_fits() -> None:
+    """Edges normal to the axis whose lines pass through it fit either sign alike (c = k = 0).
+
+    Noise must not pick their signs: a flipped edge shrinks the position covariance far
+    below what the data support. The 3D fit's covariance stays the planar fit's.
+    """
+    rng = np.random.default_rng(6)
+    sigma_e = math.radians(1.0)
+    ratios = []
+    for _ in range(100):
+        pts, eds = make_edges_3d(
+            rng,
+            PAPER_AXIS,
+            np.array([0.0, 0, 1]),
+            np.array([1.0, 0, 0]),
+            0.0,
+            n=12,
+            slide=0.01,
+            sigma_x=SIGMA_X,
+            sigma_e=sigma_e,
+        )
+        full = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=sigma_e)
+        planar = fit_axis_planar(pts, eds, point_std=SIGMA_X, edge_std=sigma_e)
+        ratios.append(np.trace(full.covariance[:2, :2]) / np.trace(planar.covariance[:2, :2]))
+    assert 0.8 < min(ratios) and max(ratios) < 1.25
+
+
 # ------------------------------------------------------------------------- robustness
 
 

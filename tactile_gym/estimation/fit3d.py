@@ -218,7 +218,7 @@ def _fit_state(x, e, w, sx, se, loss, f_scale, parallel_tol):
             pc = pc - (pc @ u) * u
             k, c = _invariants(prob.x, e, u, pc)
             prob.e = e
-            again = _whitened_norms(prob, u, pc, k, c) < _CHI2_2DOF_99
+            again = np.minimum(*_sign_norms(prob, u, pc, k, c)) < _CHI2_2DOF_99
             if (again != inliers).any() and again.sum() >= 4:
                 est, sub = _fit_subset(x, e, w, sx, se, loss, f_scale, again)
                 mask = again
@@ -254,9 +254,10 @@ def _update_state(x, e, sx, se, loss, state: _Solution):
     """Warm-started general-case refit after measurements were appended to those of state.
 
     ``x``, ``e`` (edges oriented by continuity), ``sx``, ``se`` hold all N measurements,
-    the first ``len(state.mask)`` of them those of ``state``. Each new measurement takes
-    the edge sign that fits ``state`` better; the fit then starts from ``state`` on its
-    measurements plus the new ones and uses the same solver as :func:`fit_axis_3d`.
+    the first ``len(state.mask)`` of them those of ``state``. Each new measurement keeps
+    its edge sign unless :func:`_flips` picks it under ``state``; the fit then starts from
+    ``state`` on its measurements plus the new ones and uses the same solver as
+    :func:`fit_axis_3d`.
     Returns (estimate, solution), or None when a full refit is called for: a robust loss
     and a new measurement that is an outlier under ``state`` (the inlier set may be
     changing), or a degenerate result.
@@ -272,25 +273,18 @@ def _update_state(x, e, sx, se, loss, state: _Solution):
     k, c = state.k, state.c
     # The new rows are the last ones of prob.
     m = n - n_old
-    xn, en = prob.x[-m:], prob.e[-m:]
-    d = np.einsum("ij,ij->i", xn - p, _cross(en, u[None, :]))
-    a = en @ u
-    length = prob.length
-    flip = (d + k) ** 2 + (length * (a + c)) ** 2 < (d - k) ** 2 + (length * (a - c)) ** 2
+    wh = _whitening_general(prob, u, p)
+    keep, flipped = _sign_norms(prob, u, p, k, c, wh)
+    keep, flipped = keep[-m:], flipped[-m:]
+    flip = _flips(keep, flipped)
     if flip.any():
         sign = np.where(flip, -1.0, 1.0)
         edges[n_old:] *= sign[:, None]
         ep = prob.e.copy()
         ep[-m:] *= sign[:, None]
         prob.e = ep
-    wh = _whitening_general(prob, u, p)
-    if loss != "linear":
-        r1 = np.where(flip, -d, d) - k
-        r2 = np.where(flip, -a, a) - c
-        z1 = wh[-m:, 0] * r1
-        z2 = wh[-m:, 1] * r1 + wh[-m:, 2] * r2
-        if (z1 * z1 + z2 * z2 >= _CHI2_2DOF_99).any():
-            return None
+    if loss != "linear" and (np.where(flip, flipped, keep) >= _CHI2_2DOF_99).any():
+        return None
     u, p, k, c, wh = _refine_general(prob, u, p, k, c, wh)
     est = _finish_general(prob, u, p, k, c, wh)
     if est.degenerate:
@@ -346,9 +340,7 @@ def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
         if init is None:
             continue
         u, p, k, c = init
-        z = _whitened_norms(prob, u, p, k, c)
-        if prob.sx is None:
-            z = z / max(float(np.median(z)), 1e-30) * 0.5
+        z = np.minimum(*_sign_norms(prob, u, p, k, c))
         inl = z < _CHI2_2DOF_99
         key = (int(inl.sum()), -float(np.minimum(z, _CHI2_2DOF_99).sum()))
         if best_key is None or key > best_key:
@@ -360,27 +352,41 @@ def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
             )
     if best is None or best.sum() < 4:
         return None
-    u, p, k, c = best_fit
-    d = np.einsum("ij,ij->i", prob.x - p, _cross(prob.e, u[None, :]))
-    a = prob.e @ u
-    flip = (d + k) ** 2 + (prob.length * (a + c)) ** 2 < (d - k) ** 2 + (prob.length * (a - c)) ** 2
-    return best, np.where(flip, -1.0, 1.0)
+    return best, np.where(_flips(*_sign_norms(prob, *best_fit)), -1.0, 1.0)
 
 
-def _whitened_norms(prob: _Problem, u, p, k, c) -> np.ndarray:
-    """Squared whitened (r1, r2) norm per measurement, the better of both edge signs."""
-    wh = _whitening_general(prob, u, p) if prob.sx is not None else _whitening_scale_only(prob)
+def _sign_norms(prob: _Problem, u, p, k, c, wh=None) -> tuple[np.ndarray, np.ndarray]:
+    """Squared whitened (r1, r2) norms per measurement: each edge as oriented, and flipped.
+
+    ``wh``: the whitening at (u, p) when already computed. Without stds the norms are
+    scaled so that the median of the better of the two is 0.5.
+    """
+    if wh is None:
+        wh = _whitening_general(prob, u, p) if prob.sx is not None else _whitening_scale_only(prob)
     d = np.einsum("ij,ij->i", prob.x - p, _cross(prob.e, u[None, :]))
     a = prob.e @ u
-    out = None
+    out = []
     for sgn in (1.0, -1.0):
         r1 = sgn * d - k
         r2 = sgn * a - c
         z1 = wh[:, 0] * r1
         z2 = wh[:, 1] * r1 + wh[:, 2] * r2
-        z = z1 * z1 + z2 * z2
-        out = z if out is None else np.minimum(out, z)
-    return out
+        out.append(z1 * z1 + z2 * z2)
+    keep, flipped = out
+    if prob.sx is None:
+        scale = 0.5 / max(float(np.median(np.minimum(keep, flipped))), 1e-30)
+        keep, flipped = keep * scale, flipped * scale
+    return keep, flipped
+
+
+def _flips(keep: np.ndarray, flipped: np.ndarray) -> np.ndarray:
+    """Which edges to flip: those whose squared whitened norm flipped is at most a quarter
+    of that as oriented and lower by more than the chi-square 99 % quantile.
+
+    Flipping on a mere better fit would let noise pick the sign wherever both fit alike:
+    edges nearly normal to the axis whose lines pass near it (``c ~ 0``, ``k ~ 0``).
+    """
+    return (flipped < 0.25 * keep) & (keep - flipped > _CHI2_2DOF_99)
 
 
 def _parallel_fraction(e: np.ndarray, tol: float) -> tuple[np.ndarray, float]:
@@ -681,15 +687,10 @@ def _resolve_f_scale(prob, u, p, k, c, wh) -> float:
 
 
 def _reorient(prob, u, p, k, c) -> bool:
-    """Flip the edges whose flipped version fits better; True if any was flipped."""
-    e = prob.e
-    r1 = np.einsum("ij,ij->i", prob.x - p, _cross(e, u[None, :]))
-    r2 = e @ u
-    keep = (r1 - k) ** 2 + (prob.length * (r2 - c)) ** 2
-    flip = (r1 + k) ** 2 + (prob.length * (r2 + c)) ** 2
-    bad = flip < keep * 0.25
+    """Flip the edges :func:`_flips` picks; True if any was flipped."""
+    bad = _flips(*_sign_norms(prob, u, p, k, c))
     if bad.any():
-        prob.e = np.where(bad[:, None], -e, e)
+        prob.e = np.where(bad[:, None], -prob.e, prob.e)
         return True
     return False
 
