@@ -24,15 +24,20 @@ import numpy as np
 from tactile_gym.estimation.axis import (
     DEGENERATE_CONDITION,
     AxisEstimate,
+    as_noise,
     as_points,
-    as_stds,
     as_unit_edges,
     as_weights,
     degenerate_estimate,
 )
 from tactile_gym.spatial import orient_edges
 
-__all__ = ["fit_axis_planar", "fit_axis_simple", "planar_residual_variance"]
+__all__ = [
+    "edge_rotation_variance",
+    "fit_axis_planar",
+    "fit_axis_simple",
+    "planar_residual_variance",
+]
 
 # Floor on a residual variance so that exact data with zero stds keep finite weights, m^2.
 _VARIANCE_FLOOR = 1e-18
@@ -48,24 +53,55 @@ def planar_residual_variance(
     edges: np.ndarray,
     axis_xy: np.ndarray,
     point_std: np.ndarray | float,
-    edge_std: np.ndarray | float,
+    edge_var: np.ndarray | float,
 ) -> np.ndarray:
     """Predicted variance of the eq. 16 residual of each measurement, m^2.
 
-    ``sigma_r^2 = point_std^2 + (lever * edge_std)^2``: the point error across the edge moves
-    the residual one for one; an edge rotation by ``delta`` moves it by ``lever * delta``,
-    where ``lever = e_i . (x_i - axis)`` is the distance along the edge from the contact point
-    to the foot of the perpendicular from the axis.
+    ``sigma_r^2 = point_std^2 + lever^2 edge_var``: the point error across the edge moves
+    the residual one for one; an edge rotation by ``delta`` about z moves it by
+    ``lever * delta``, where ``lever = e_i . (x_i - axis)`` is the distance along the edge
+    from the contact point to the foot of the perpendicular from the axis.
 
     Args:
         points: (N, 2) contact points, world x-y, m.
-        edges: (N, 2) unit edge directions.
+        edges: (N, 2) unit x-y edge directions.
         axis_xy: (2,) current axis position estimate, m.
         point_std: contact-point std per axis, m; scalar or (N,).
-        edge_std: edge-direction std, rad; scalar or (N,).
+        edge_var: variance of the edge's rotation about world z, rad^2; scalar or (N,)
+            (see :func:`edge_rotation_variance`).
     """
     lever = np.einsum("ij,ij->i", edges, points - axis_xy)
-    return np.square(point_std) + np.square(lever * edge_std) + _VARIANCE_FLOOR
+    return np.square(point_std) + np.square(lever) * edge_var + _VARIANCE_FLOOR
+
+
+def edge_rotation_variance(
+    edges: np.ndarray, edge_std: np.ndarray | float, edge_cov: np.ndarray | None = None
+) -> np.ndarray:
+    """(N,) variance of the rotation about world z of each edge's x-y direction, rad^2.
+
+    A perturbation ``de`` of the unit edge e turns its x-y direction by ``h . de``, with
+    ``h = (-e_y, e_x, 0) / rho^2`` and ``rho = |(e_x, e_y)|``: the variance is
+    ``h^T edge_cov h``. Without ``edge_cov`` the noise is isotropic about the edge: for 3D
+    edges ``edge_cov = (edge_std^2 / 2) (I - e e^T)``, so ``edge_std^2 / (2 rho^2)``; a 2D
+    edge has one normal direction only, in the plane, so ``edge_std^2``.
+
+    Args:
+        edges: (N, 2) or (N, 3) edge directions, world frame, with an x-y part.
+        edge_std: total RMS angle error of each edge, rad; scalar or (N,). Used without
+            ``edge_cov``.
+        edge_cov: optional (N, 3, 3) validated edge covariances, world frame, rad^2.
+    """
+    e = edges / np.linalg.norm(edges, axis=1)[:, None]
+    if edge_cov is None and e.shape[1] == 2:
+        return np.full(e.shape[0], 1.0) * np.square(edge_std)
+    # Edges with less x-y part than this are dropped by the fit; keep them finite.
+    rho2 = np.maximum(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1], _NO_XY * _NO_XY)
+    if edge_cov is None:
+        return np.square(edge_std) / (2.0 * rho2)
+    hx = -e[:, 1] / rho2
+    hy = e[:, 0] / rho2
+    c = edge_cov
+    return hx * hx * c[:, 0, 0] + 2.0 * hx * hy * c[:, 0, 1] + hy * hy * c[:, 1, 1]
 
 
 def fit_axis_planar(
@@ -75,6 +111,7 @@ def fit_axis_planar(
     *,
     point_std: np.ndarray | float | None = None,
     edge_std: np.ndarray | float | None = None,
+    edge_cov: np.ndarray | None = None,
     resolve_signs: bool = True,
 ) -> AxisEstimate:
     """Fit a joint axis parallel to world z from contact points and edge directions.
@@ -94,9 +131,17 @@ def fit_axis_planar(
             Edges with no x-y component carry no information and are dropped.
         weights: optional (N,) inverse variances of the eq. 16 residuals, 1/m^2.
         point_std: alternative to ``weights``: contact-point std per axis, m (scalar or
-            (N,)). Needs ``edge_std`` too. The residual variances are then predicted by
-            :func:`planar_residual_variance` from an unweighted fit and refined twice.
-        edge_std: edge-direction std, rad (scalar or (N,)); with ``point_std``.
+            (N,)). Needs ``edge_std`` or ``edge_cov`` too. The residual variances are then
+            predicted by :func:`planar_residual_variance` from an unweighted fit and
+            refined twice.
+        edge_std: total RMS angle error of each edge, rad (scalar or (N,)), isotropic about
+            the edge: for 3D edges half its variance turns the edge about z (more when the
+            edge is tilted out of the plane), for 2D edges all of it (see
+            :func:`edge_rotation_variance`).
+        edge_cov: alternative to ``edge_std``: (N, 3, 3) covariance of the perturbation of
+            each unit edge, world frame, rad^2, as for
+            :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`; only its rotation about z
+            matters here.
         resolve_signs: orient the edges consistently (see the module docstring).
             Pass False when the edges are already oriented.
 
@@ -112,19 +157,18 @@ def fit_axis_planar(
     x = as_points(points, "points")
     n = x.shape[0]
     e3 = as_unit_edges(edges, n)
-    if (point_std is None) != (edge_std is None):
-        raise ValueError("point_std and edge_std must be given together")
-    if weights is not None and point_std is not None:
-        raise ValueError("give either weights or point_std/edge_std, not both")
+    unit3 = e3 if e3.shape[1] == 3 else np.column_stack([e3, np.zeros(n)])
+    sx, se, cov = as_noise(point_std, edge_std, edge_cov, unit3)
+    if weights is not None and sx is not None:
+        raise ValueError("give either weights or point_std with edge_std or edge_cov, not both")
     w = None if weights is None else as_weights(weights, n)
     if resolve_signs:
         # Signs from the x-y parts (those the fit uses), applied to the whole edges.
         xy = np.column_stack([e3[:, :2], np.zeros(n)])
         e3 = np.where((np.einsum("ij,ij->i", orient_edges(xy), xy) < 0)[:, None], -e3, e3)
-    if point_std is None:
+    if sx is None:
         return _checked(_planar_fit(x, e3, w))
-    sx = as_stds(point_std, n, "point_std", "m")
-    se = as_stds(edge_std, n, "edge_std", "rad")
+    var_z = edge_rotation_variance(e3, se, cov)
     est = _checked(_planar_fit(x, e3, None))
     # Predict the residual variances from the current axis and refit; twice is enough for
     # the levers to settle (they change by the axis error, a few mm).
@@ -132,7 +176,7 @@ def fit_axis_planar(
     for _ in range(2):
         if est.degenerate:
             return est
-        var = planar_residual_variance(x[:, :2], e2, est.point[:2], sx, se)
+        var = planar_residual_variance(x[:, :2], e2, est.point[:2], sx, var_z)
         est = _checked(_planar_fit(x, e3, 1.0 / var))
     return est
 

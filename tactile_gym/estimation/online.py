@@ -3,13 +3,16 @@
 Conventions: world frame, metres, radians. Points are contact points on the link's edge,
 edges its direction there (any sign; each new edge is oriented like the best-aligned of
 the previous few, see :func:`tactile_gym.spatial.orient_edges`), ``point_std`` the
-contact-point std per axis (m) and ``edge_std`` the edge-direction std (rad).
+contact-point std per axis (m), ``edge_std`` the edge's total RMS angle error (rad) and
+``edge_cov`` optionally its full covariance (rad^2), as for
+:func:`~tactile_gym.estimation.fit3d.fit_axis_3d`.
 
 Weighting (DESIGN.md 2.5: the fit is badly conditioned over small rotations). Each
-measurement is weighted by the inverse of its predicted residual variance,
-``point_std^2 + (lever * edge_std)^2``, where the lever is the distance along the edge from
-the contact point to the foot of the perpendicular from the axis. The lever needs an axis:
-the previous estimate provides it (two passes when there is none yet).
+measurement is weighted by the inverse of its predicted residual variance; in the planar
+mode ``point_std^2 + lever^2 var_z``, where ``var_z`` is the variance of the edge's rotation
+about z and the lever the distance along the edge from the contact point to the foot of
+the perpendicular from the axis. The lever needs an axis: the previous estimate provides
+it (two passes when there is none yet).
 """
 
 from __future__ import annotations
@@ -18,9 +21,13 @@ import math
 
 import numpy as np
 
-from tactile_gym.estimation.axis import AxisEstimate
-from tactile_gym.estimation.fit3d import LOSSES, _fit_state, _update_state
-from tactile_gym.estimation.fits import _planar_fit, planar_residual_variance
+from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs, isotropic_edge_covs
+from tactile_gym.estimation.fit3d import LOSSES, _fit_state, _Noise, _update_state
+from tactile_gym.estimation.fits import (
+    _planar_fit,
+    edge_rotation_variance,
+    planar_residual_variance,
+)
 from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
 
 __all__ = ["JointAxisEstimator"]
@@ -87,6 +94,9 @@ class JointAxisEstimator:
         self._edges = np.empty((cap, 3))
         self._point_std = np.empty(cap)
         self._edge_std = np.empty(cap)
+        # The noise the fits use: planar, the variance of the edge's rotation about z
+        # (rad^2); 3d, the edge covariance (rad^2).
+        self._edge_noise = np.empty((cap,) if self.mode == "planar" else (cap, 3, 3))
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
         self._cached: AxisEstimate | None = None
         self._stale = False
@@ -121,22 +131,36 @@ class JointAxisEstimator:
 
     @property
     def edge_stds(self) -> np.ndarray:
-        """(N,) edge-direction stds, rad (read-only)."""
+        """(N,) edge stds (total RMS angle errors) as given, rad (read-only)."""
         return self._view(self._edge_std)
 
-    def add(self, point: np.ndarray, edge: np.ndarray, point_std: float, edge_std: float) -> None:
+    def add(
+        self,
+        point: np.ndarray,
+        edge: np.ndarray,
+        point_std: float,
+        edge_std: float,
+        edge_cov: np.ndarray | None = None,
+    ) -> None:
         """Add one measurement.
 
         Args:
             point: (3,) contact point, world frame, m ((2,) allowed in planar mode).
             edge: (3,) edge direction, world frame, any length > 0 and any sign ((2,)
-                allowed in planar mode). In planar mode its z part is dropped.
+                allowed in planar mode). In planar mode its z part is dropped after
+                ``edge_std`` or ``edge_cov`` has given the variance of its rotation about z.
             point_std: contact-point std per axis, m, >= 0.
-            edge_std: edge-direction std, rad, >= 0.
+            edge_std: total RMS angle error of the edge, rad, >= 0. Without ``edge_cov``
+                the noise is isotropic about the edge (for a (2,) edge: all of it about z).
+            edge_cov: optional (3, 3) covariance of the perturbation of the unit edge,
+                world frame, rad^2 (see :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`).
+                When given it replaces the isotropic model; ``edge_std`` then only sets the
+                tolerance of distinct directions.
 
         Raises:
             ValueError: on a malformed point or edge, a zero edge (planar: no x-y part),
-                or a negative or non-finite std.
+                a negative or non-finite std, or an edge_cov that is not a finite symmetric
+                positive semi-definite (3, 3) matrix.
         """
         x = np.asarray(point, dtype=float)
         e = np.asarray(edge, dtype=float)
@@ -159,14 +183,26 @@ class JointAxisEstimator:
             raise ValueError(f"point_std must be finite and >= 0 m, got {point_std!r}")
         if not (math.isfinite(se) and se >= 0):
             raise ValueError(f"edge_std must be finite and >= 0 rad, got {edge_std!r}")
-        if self.mode == "planar":
-            el = [el[0], el[1], 0.0]
-        elif len(el) == 2:
-            el = [el[0], el[1], 0.0]
-        norm = math.sqrt(el[0] * el[0] + el[1] * el[1] + el[2] * el[2])
+        if len(el) == 2:
+            el.append(0.0)
+        length = math.sqrt(el[0] * el[0] + el[1] * el[1] + el[2] * el[2])
+        norm = math.hypot(el[0], el[1]) if self.mode == "planar" else length
         if norm <= 1e-12:
             what = "an x-y part" if self.mode == "planar" else "a non-zero length"
             raise ValueError(f"edge must have {what}, got {e.tolist()}")
+        unit = np.array(el)[None] / length
+        cov = None
+        if edge_cov is not None:
+            cov = np.asarray(edge_cov, dtype=float)[None]
+            if cov.shape != (1, 3, 3):
+                raise ValueError(f"edge_cov must have shape (3, 3), got {cov.shape[1:]}")
+            cov = as_edge_covs(cov, unit)
+        if self.mode == "planar":
+            # From the edge as given, before its z part goes.
+            noise = edge_rotation_variance(e[None], se, cov)[0]
+            el[2] = 0.0
+        else:
+            noise = (isotropic_edge_covs(unit, se) if cov is None else cov)[0]
         el = [v / norm for v in el]
         if len(xl) == 2:
             xl.append(0.0)
@@ -178,6 +214,7 @@ class JointAxisEstimator:
         self._edges[n] = orient_like(el, self._edges[max(0, n - SIGN_LOOKBACK) : n]) if n else el
         self._point_std[n] = sx
         self._edge_std[n] = se
+        self._edge_noise[n] = noise
         self._n = n + 1
         if len(self._dirs) < 3:
             tol = math.cos(max(_DISTINCT_TOL, 3.0 * se))
@@ -187,15 +224,9 @@ class JointAxisEstimator:
         self._stale = True
 
     def _grow(self) -> None:
-        cap = 2 * self._points.shape[0]
-        for name in ("_points", "_edges"):
+        for name in ("_points", "_edges", "_point_std", "_edge_std", "_edge_noise"):
             old = getattr(self, name)
-            new = np.empty((cap, 3))
-            new[: self._n] = old[: self._n]
-            setattr(self, name, new)
-        for name in ("_point_std", "_edge_std"):
-            old = getattr(self, name)
-            new = np.empty(cap)
+            new = np.empty((2 * old.shape[0],) + old.shape[1:])
             new[: self._n] = old[: self._n]
             setattr(self, name, new)
 
@@ -221,10 +252,9 @@ class JointAxisEstimator:
             return None
         est = None
         x = self._points[:n]
-        sx = self._point_std[:n]
-        se = self._edge_std[:n]
+        noise = _Noise(self._point_std[:n].copy(), self._edge_noise[:n].copy())
         if self._state is not None and n < self._n_full * _FULL_REFIT_GROWTH:
-            out = _update_state(x, self._edges[:n], sx, se, self.loss, self._state)
+            out = _update_state(x, self._edges[:n], noise, self.loss, self._state)
             if out is not None:
                 est, self._state = out
         if est is None:
@@ -232,8 +262,7 @@ class JointAxisEstimator:
                 x.copy(),
                 self._edges[:n].copy(),
                 np.ones(n),
-                sx.copy(),
-                se.copy(),
+                noise,
                 self.loss,
                 None,
                 math.radians(1.0),
@@ -250,7 +279,7 @@ class JointAxisEstimator:
         x = self._points[:n]
         e = self._edges[:n]
         sx = self._point_std[:n]
-        se = self._edge_std[:n]
+        var_z = self._edge_noise[:n]
         prev = self._last
         passes = 1
         if prev is None or prev.degenerate:
@@ -259,7 +288,7 @@ class JointAxisEstimator:
         for _ in range(passes):
             if prev is None or prev.degenerate:
                 return None
-            var = planar_residual_variance(x[:, :2], e[:, :2], prev.point[:2], sx, se)
+            var = planar_residual_variance(x[:, :2], e[:, :2], prev.point[:2], sx, var_z)
             prev = _planar_fit(x, e, 1.0 / var)
         if prev is None or prev.degenerate:
             return None
