@@ -16,7 +16,7 @@ edge), e.g. ``var_in g g^T + var_out n n^T`` for a skin normal n and ``g = n x e
 """
 
 from tactile_gym.estimation.axis import COVARIANCE_LAYOUT, AxisEstimate
-from tactile_gym.estimation.fit3d import LOSSES, fit_axis_3d
+from tactile_gym.estimation.fit3d import fit_axis_3d
 from tactile_gym.estimation.fits import (
     edge_rotation_variance,
     fit_axis_planar,
@@ -25,6 +25,7 @@ from tactile_gym.estimation.fits import (
 )
 from tactile_gym.estimation.metrics import axis_error
 from tactile_gym.estimation.online import JointAxisEstimator
+from tactile_gym.estimation.robust import LOSSES
 
 __all__ = [
     "COVARIANCE_LAYOUT",

@@ -59,12 +59,18 @@ from tactile_gym.estimation.axis import (
     isotropic_edge_covs,
     stds_from_covariance,
 )
+from tactile_gym.estimation.robust import (
+    CHI2_99,
+    check_loss,
+    consensus,
+    loss_cost,
+    mad_f_scale,
+    robust_weights,
+    sign_flips,
+)
 from tactile_gym.spatial import orient_edges
 
-__all__ = ["fit_axis_3d", "LOSSES"]
-
-LOSSES = ("linear", "soft_l1", "huber", "cauchy")
-"""Loss functions accepted by :func:`fit_axis_3d` (those of scipy's least_squares)."""
+__all__ = ["fit_axis_3d"]
 
 _DEFAULT_PARALLEL_TOL = math.radians(1.0)
 _VAR_FLOOR = 1e-24
@@ -129,10 +135,7 @@ def fit_axis_3d(
     x = as_points(points, "points", dims=(3,))
     n = x.shape[0]
     e = as_unit_edges(edges, n, dims=(3,))
-    if loss not in LOSSES:
-        raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
-    if f_scale is not None and not (math.isfinite(f_scale) and f_scale > 0):
-        raise ValueError(f"f_scale must be a finite number > 0, got {f_scale!r}")
+    check_loss(loss, f_scale)
     if not (math.isfinite(parallel_tol) and 0 <= parallel_tol < math.pi / 2):
         raise ValueError(f"parallel_tol must be in [0, pi/2) rad, got {parallel_tol!r}")
     sx, se, cov = as_noise(point_std, edge_std, edge_cov, e)
@@ -250,7 +253,7 @@ def _fit_state(x, e, w, noise, loss, f_scale, parallel_tol):
             pc = pc - (pc @ u) * u
             k, c = _invariants(prob.x, e, u, pc)
             prob.e = e
-            again = np.minimum(*_sign_norms(prob, u, pc, k, c)) < _CHI2_2DOF_99
+            again = np.minimum(*_sign_norms(prob, u, pc, k, c)) < CHI2_99[2]
             if (again != inliers).any() and again.sum() >= 4:
                 est, sub = _fit_subset(x, e, w, noise, loss, f_scale, again)
                 mask = again
@@ -281,9 +284,9 @@ def _update_state(x, e, noise: _Noise, loss, state: _Solution):
 
     ``x``, ``e`` (edges oriented by continuity) and ``noise`` hold all N measurements,
     the first ``len(state.mask)`` of them those of ``state``. Each new measurement keeps
-    its edge sign unless :func:`_flips` picks it under ``state``; the fit then starts from
-    ``state`` on its measurements plus the new ones and uses the same solver as
-    :func:`fit_axis_3d`.
+    its edge sign unless it fits far better flipped under ``state`` (``sign_flips``); the
+    fit then starts from ``state`` on its measurements plus the new ones and uses the same
+    solver as :func:`fit_axis_3d`.
     Returns (estimate, solution), or None when a full refit is called for: a robust loss
     and a new measurement that is an outlier under ``state`` (the inlier set may be
     changing), or a degenerate result.
@@ -302,14 +305,14 @@ def _update_state(x, e, noise: _Noise, loss, state: _Solution):
     wh = _whitening_general(prob, u, p)
     keep, flipped = _sign_norms(prob, u, p, k, c, wh)
     keep, flipped = keep[-m:], flipped[-m:]
-    flip = _flips(keep, flipped)
+    flip = sign_flips(keep, flipped, 2)
     if flip.any():
         sign = np.where(flip, -1.0, 1.0)
         edges[n_old:] *= sign[:, None]
         ep = prob.e.copy()
         ep[-m:] *= sign[:, None]
         prob.e = ep
-    if loss != "linear" and (np.where(flip, flipped, keep) >= _CHI2_2DOF_99).any():
+    if loss != "linear" and (np.where(flip, flipped, keep) >= CHI2_99[2]).any():
         return None
     u, p, k, c, wh = _refine_general(prob, u, p, k, c, wh)
     est = _finish_general(prob, u, p, k, c, wh)
@@ -325,35 +328,16 @@ def _invariants(x, e, u, p) -> tuple[float, float]:
     return k, float(np.median(e @ u))
 
 
-# Squared whitened residual norm (2 dof) beyond which a measurement is an outlier: the
-# chi-square 99 % quantile.
-_CHI2_2DOF_99 = 9.21
-_CONSENSUS_TRIALS = 24
-
-
 def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
-    """Inlier mask and edge signs (+-1) of the best minimal (3-line) closed-form fit, RANSAC-style.
+    """Inlier mask and edge signs (+-1) of the best minimal (3-line) closed-form fit
+    (:func:`~tactile_gym.estimation.robust.consensus`).
 
     A per-residual robust loss is not enough here: for nearly planar motion an axis lying
     in the plane of the contacts zeroes every reciprocal-product residual, and wild edges
-    then make that wrong axis cheaper under L1-like losses. Candidate triples are spread
-    over the sequence (deterministically, then from a fixed-seed generator), so results
-    are reproducible.
+    then make that wrong axis cheaper under L1-like losses.
     """
-    n = prob.n
-    third = max(n // 3, 1)
-    triples = [(i, (i + third) % n, (i + 2 * third) % n) for i in range(n)]
-    gen = np.random.default_rng(0)
-    while len(triples) < _CONSENSUS_TRIALS:
-        triples.append(tuple(gen.choice(n, size=3, replace=False).tolist()))
-    best, best_key = None, None
-    needed = _CONSENSUS_TRIALS
-    for trial, tri in enumerate(triples[:_CONSENSUS_TRIALS]):
-        if trial >= needed:
-            break
-        idx = np.array(tri)
-        if len(set(tri)) < 3:
-            continue
+
+    def fit_triple(idx):
         sub = _Problem.__new__(_Problem)
         sub.__dict__.update(prob.__dict__)
         sub.x, sub.n = prob.x[idx], 3
@@ -361,23 +345,13 @@ def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
         sub.sqrt_w = prob.sqrt_w[idx]
         sub.noise = None if prob.noise is None else prob.noise.take(idx)
         sub.loss = "linear"
-        init = _linear_init(sub, _whitening_scale_only(sub))
-        if init is None:
-            continue
-        u, p, k, c = init
-        z = np.minimum(*_sign_norms(prob, u, p, k, c))
-        inl = z < _CHI2_2DOF_99
-        key = (int(inl.sum()), -float(np.minimum(z, _CHI2_2DOF_99).sum()))
-        if best_key is None or key > best_key:
-            best, best_key, best_fit = inl, key, (u, p, k, c)
-            # Adaptive stop: enough trials for a 99 % chance of one all-inlier triple.
-            frac = min(best_key[0] / n, 1.0 - 1e-9)
-            needed = min(
-                _CONSENSUS_TRIALS, int(math.ceil(math.log(0.01) / math.log(1.0 - frac**3)))
-            )
-    if best is None or best.sum() < 4:
+        return _linear_init(sub, _whitening_scale_only(sub))
+
+    found = consensus(prob.n, fit_triple, lambda fit: np.minimum(*_sign_norms(prob, *fit)), 2)
+    if found is None:
         return None
-    return best, np.where(_flips(*_sign_norms(prob, *best_fit)), -1.0, 1.0)
+    inliers, fit = found
+    return inliers, np.where(sign_flips(*_sign_norms(prob, *fit), 2), -1.0, 1.0)
 
 
 def _sign_norms(prob: _Problem, u, p, k, c, wh=None) -> tuple[np.ndarray, np.ndarray]:
@@ -406,16 +380,6 @@ def _sign_norms(prob: _Problem, u, p, k, c, wh=None) -> tuple[np.ndarray, np.nda
         scale = 0.5 / max(float(np.median(np.minimum(keep, flipped))), 1e-30)
         keep, flipped = keep * scale, flipped * scale
     return keep, flipped
-
-
-def _flips(keep: np.ndarray, flipped: np.ndarray) -> np.ndarray:
-    """Which edges to flip: those whose squared whitened norm flipped is at most a quarter
-    of that as oriented and lower by more than the chi-square 99 % quantile.
-
-    Flipping on a mere better fit would let noise pick the sign wherever both fit alike:
-    edges nearly normal to the axis whose lines pass near it (``c ~ 0``, ``k ~ 0``).
-    """
-    return (flipped < 0.25 * keep) & (keep - flipped > _CHI2_2DOF_99)
 
 
 def _parallel_fraction(e: np.ndarray, tol: float) -> tuple[np.ndarray, float]:
@@ -588,20 +552,6 @@ def _linearise(prob, wh, u, p, k, c, jacobian=True):
     return z, jm, b1, b2
 
 
-def _loss_cost(z: np.ndarray, loss: str, f_scale: float) -> float:
-    """scipy's least_squares cost ``0.5 f^2 sum rho((z / f)^2)`` of whitened residuals."""
-    if loss == "linear":
-        return 0.5 * float(z @ z)
-    s = (z / f_scale) ** 2
-    if loss == "soft_l1":
-        rho = 2.0 * (np.sqrt(1.0 + s) - 1.0)
-    elif loss == "huber":
-        rho = np.where(s <= 1.0, s, 2.0 * np.sqrt(s) - 1.0)
-    else:  # cauchy
-        rho = np.log1p(s)
-    return 0.5 * f_scale * f_scale * float(rho.sum())
-
-
 _SOLVER_MAX_ITER = 50
 
 
@@ -617,7 +567,7 @@ def _solve_general(prob, wh, u, p, k, c, f_scale):
     """
     loss = prob.loss
     z, jm, b1, b2 = _linearise(prob, wh, u, p, k, c)
-    cost = _loss_cost(z, loss, f_scale)
+    cost = loss_cost(z, loss, f_scale)
     # Damping: Nielsen's rule, from 0 (pure Gauss-Newton, what a good start needs).
     lam, nu = 0.0, 2.0
     ang_tol = 1e-11
@@ -627,7 +577,7 @@ def _solve_general(prob, wh, u, p, k, c, f_scale):
             g = jm.T @ z
             h = jm.T @ jm
         else:
-            rw, hw = _robust_weights(z, loss, f_scale, curvature=True)
+            rw, hw = robust_weights(z, loss, f_scale, curvature=True)
             g = jm.T @ (rw * z)
             h = (jm * hw[:, None]).T @ jm
         dh = np.diag(h).copy()
@@ -646,7 +596,7 @@ def _solve_general(prob, wh, u, p, k, c, f_scale):
             pn = pn - (pn @ un) * un
             kn, cn = k + sl[4], c + sl[5]
             zn, _, _, _ = _linearise(prob, wh, un, pn, kn, cn, jacobian=False)
-            new = _loss_cost(zn, loss, f_scale)
+            new = loss_cost(zn, loss, f_scale)
             if new <= cost:
                 pred = -float(step @ g) - 0.5 * float(step @ (h @ step))
                 ratio = (cost - new) / pred if pred > 0 else 1.0
@@ -714,44 +664,21 @@ def _resolve_f_scale(prob, u, p, k, c, wh) -> float:
     if prob.noise is not None or prob.loss == "linear":
         return 2.0
     r, _, _, _ = _linearise(prob, wh, u, p, k, c, jacobian=False)
-    mad = float(np.median(np.abs(r)))
-    return max(2.0 * 1.4826 * mad, 1e-9)
+    return mad_f_scale(r)
 
 
 def _reorient(prob, u, p, k, c) -> bool:
-    """Flip the edges :func:`_flips` picks; True if any was flipped."""
-    bad = _flips(*_sign_norms(prob, u, p, k, c))
+    """Flip the edges that fit far better flipped (``sign_flips``); True if any was."""
+    bad = sign_flips(*_sign_norms(prob, u, p, k, c), 2)
     if bad.any():
         prob.e = np.where(bad[:, None], -prob.e, prob.e)
         return True
     return False
 
 
-def _robust_weights(r: np.ndarray, loss: str, f_scale: float, curvature: bool = False):
-    """IRLS weights rho'(s), s = (r / f_scale)^2, of scipy's losses.
-
-    With ``curvature`` also the weights of the Newton matrix, the second derivative of
-    ``0.5 rho(s)`` in r: ``rho' + 2 s rho''``, clipped to at least ``0.05 rho'`` (Cauchy's
-    is negative far out).
-    """
-    s = (r / f_scale) ** 2
-    if loss == "soft_l1":
-        w = 1.0 / np.sqrt(1.0 + s)
-        return (w, w * w * w) if curvature else w
-    if loss == "huber":
-        out = s > 1.0
-        w = np.where(out, 1.0 / np.sqrt(np.maximum(s, 1.0)), 1.0)
-        return (w, np.where(out, 0.05 * w, 1.0)) if curvature else w
-    if loss == "cauchy":
-        w = 1.0 / (1.0 + s)
-        return (w, np.maximum((1.0 - s) * w * w, 0.05 * w)) if curvature else w
-    w = np.ones_like(r)
-    return (w, w) if curvature else w
-
-
 def _covariance_local(prob, r, jm, n_params, f_scale):
     """(cov, cond) of the local parameters from the residuals and Jacobian at the solution."""
-    rho = _robust_weights(r, prob.loss, f_scale)
+    rho = robust_weights(r, prob.loss, f_scale)
     jw = jm * np.sqrt(rho)[:, None]
     col = np.linalg.norm(jw, axis=0)
     if not (col > 0).all():
@@ -931,7 +858,7 @@ def _fit_parallel(prob: _Problem, mean_dir: np.ndarray) -> AxisEstimate:
     elif prob.noise is not None:
         f_scale = 2.0
     else:
-        f_scale = max(2.0 * 1.4826 * float(np.median(np.abs(fun(t0)))), 1e-9)
+        f_scale = mad_f_scale(fun(t0))
     if prob.loss == "linear" and 3 * prob.n >= 5:
         res = least_squares(fun, t0, jac=jac, method="lm", x_scale="jac", xtol=1e-10, ftol=1e-10)
     else:

@@ -22,12 +22,13 @@ import math
 import numpy as np
 
 from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs, isotropic_edge_covs
-from tactile_gym.estimation.fit3d import LOSSES, _fit_state, _Noise, _update_state
+from tactile_gym.estimation.fit3d import _fit_state, _Noise, _update_state
 from tactile_gym.estimation.fits import (
     _planar_fit,
     edge_rotation_variance,
     planar_residual_variance,
 )
+from tactile_gym.estimation.robust import check_loss
 from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
 
 __all__ = ["JointAxisEstimator"]
@@ -72,8 +73,7 @@ class JointAxisEstimator:
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        if loss not in LOSSES:
-            raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
+        check_loss(loss)
         default_min = 3 if mode == "planar" else 4
         if min_measurements is None:
             min_measurements = default_min
