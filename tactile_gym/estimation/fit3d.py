@@ -347,18 +347,25 @@ def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
         sub.loss = "linear"
         return _linear_init(sub, _whitening_scale_only(sub))
 
-    found = consensus(prob.n, fit_triple, lambda fit: np.minimum(*_sign_norms(prob, *fit)), 2)
+    def sq_norms(fit):
+        return np.minimum(*_sign_norms(prob, *fit, raw=True))
+
+    found = consensus(prob.n, fit_triple, sq_norms, 2, whitened=prob.noise is not None)
     if found is None:
         return None
-    inliers, fit = found
-    return inliers, np.where(sign_flips(*_sign_norms(prob, *fit), 2), -1.0, 1.0)
+    inliers, fit, scale = found
+    keep, flipped = _sign_norms(prob, *fit, raw=True)
+    return inliers, np.where(sign_flips(keep / scale, flipped / scale, 2), -1.0, 1.0)
 
 
-def _sign_norms(prob: _Problem, u, p, k, c, wh=None) -> tuple[np.ndarray, np.ndarray]:
+def _sign_norms(
+    prob: _Problem, u, p, k, c, wh=None, raw: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """Squared whitened (r1, r2) norms per measurement: each edge as oriented, and flipped.
 
     ``wh``: the whitening at (u, p) when already computed. Without stds the norms are
-    scaled so that the median of the better of the two is 0.5.
+    scaled so that the median of the better of the two is 0.5 (a noise level from the
+    residuals of a fitted axis), unless ``raw``.
     """
     if wh is None:
         wh = (
@@ -376,7 +383,7 @@ def _sign_norms(prob: _Problem, u, p, k, c, wh=None) -> tuple[np.ndarray, np.nda
         z2 = wh[:, 1] * r1 + wh[:, 2] * r2
         out.append(z1 * z1 + z2 * z2)
     keep, flipped = out
-    if prob.noise is None:
+    if prob.noise is None and not raw:
         scale = 0.5 / max(float(np.median(np.minimum(keep, flipped))), 1e-30)
         keep, flipped = keep * scale, flipped * scale
     return keep, flipped

@@ -20,6 +20,10 @@ LOSSES = ("linear", "soft_l1", "huber", "cauchy")
 # Chi-square 99 % quantiles: a squared whitened residual beyond them is an outlier.
 CHI2_99 = {1: 6.63, 2: 9.21}
 
+# Chi-square quantiles at the two-sided 5-sigma probability (5.7e-7): beyond them a
+# squared whitened residual is a gross error, not noise.
+OUTLIER_GATE = {1: 25.0, 2: 28.7}
+
 # Normalised median absolute deviation: 1.4826 MAD estimates a Gaussian std.
 MAD_TO_STD = 1.4826
 
@@ -78,12 +82,13 @@ def robust_weights(r: np.ndarray, loss: str, f_scale: float, curvature: bool = F
 def sign_flips(keep: np.ndarray, flipped: np.ndarray, dof: int) -> np.ndarray:
     """Which edges to flip, from squared whitened norms with each edge as oriented and
     flipped: those that fit flipped at most a quarter as badly, and better by more than
-    the chi-square 99 % quantile of ``dof`` degrees of freedom.
+    ``OUTLIER_GATE[dof]`` (5 sigma).
 
-    Flipping on a mere better fit would let noise pick the sign wherever both fit alike
-    (an edge line through the axis, normal to it).
+    A weaker rule lets noise pick the sign wherever both fit about alike (an edge line
+    near the axis and normal to it, or a distance d that is small against the noise), and
+    a valid edge flipped costs these badly conditioned fits dearly.
     """
-    return (flipped < 0.25 * keep) & (keep - flipped > CHI2_99[dof])
+    return (flipped < 0.25 * keep) & (keep - flipped > OUTLIER_GATE[dof])
 
 
 def consensus(
@@ -91,33 +96,36 @@ def consensus(
     fit_triple: Callable[[np.ndarray], object | None],
     sq_norms: Callable[[object], np.ndarray],
     dof: int,
-) -> tuple[np.ndarray, object] | None:
+    whitened: bool = True,
+) -> tuple[np.ndarray, object, float] | None:
     """The inlier mask and fit of the best minimal (3-measurement) fit, RANSAC-style.
 
     Candidate triples are spread over the sequence (deterministically, then from a
     fixed-seed generator), so results are reproducible; the number of trials adapts to a
-    99 % chance of one all-inlier triple (at most 24). The best candidate has the most
-    inliers (``sq_norms(fit) < CHI2_99[dof]``), ties going to the lower truncated sum.
+    99 % chance of one all-inlier triple (at most 24). Whitened norms: the best candidate
+    has the most inliers (``sq_norms(fit) < CHI2_99[dof]``), ties going to the lower
+    truncated sum. Without a noise model a candidate's own residuals cannot tell its noise
+    level (a wrong fit has large residuals everywhere, and all look alike), so the best
+    candidate has the least median norm (Rousseeuw's least median of squares), and the
+    noise variance comes from that median.
 
     Args:
         n: number of measurements (>= 3).
         fit_triple: the fit of the measurements at three indices, or None where they do
             not determine one.
-        sq_norms: (n,) squared whitened residual norms of all measurements under a fit.
+        sq_norms: (n,) squared residual norms of all measurements under a fit, whitened or
+            (``whitened=False``) not.
         dof: degrees of freedom of one measurement's residual.
+        whitened: whether ``sq_norms`` are in units of their predicted variance.
 
     Returns:
-        ``(inliers, fit)``, or None when no triple gave a fit with at least 4 inliers.
+        ``(inliers, fit, scale)``: ``scale`` is the noise variance that whitens the norms
+        (1 when they are whitened). None when no triple gave a fit with 4 inliers or more.
     """
     threshold = CHI2_99[dof]
-    third = max(n // 3, 1)
-    triples = [(i, (i + third) % n, (i + 2 * third) % n) for i in range(n)]
-    gen = np.random.default_rng(0)
-    while len(triples) < _CONSENSUS_TRIALS:
-        triples.append(tuple(gen.choice(n, size=3, replace=False).tolist()))
     best = best_key = best_fit = None
     needed = _CONSENSUS_TRIALS
-    for trial, tri in enumerate(triples[:_CONSENSUS_TRIALS]):
+    for trial, tri in enumerate(_triples(n)):
         if trial >= needed:
             break
         if len(set(tri)) < 3:
@@ -126,14 +134,41 @@ def consensus(
         if fit is None:
             continue
         z = sq_norms(fit)
-        inl = z < threshold
-        key = (int(inl.sum()), -float(np.minimum(z, threshold).sum()))
+        scale = 1.0 if whitened else _lmeds_variance(z, dof)
+        inl = z < threshold * scale
+        if whitened:
+            key = (int(inl.sum()), -float(np.minimum(z, threshold).sum()))
+        else:
+            key = (-scale,)
         if best_key is None or key > best_key:
-            best, best_key, best_fit = inl, key, fit
-            frac = min(best_key[0] / n, 1.0 - 1e-9)
+            best, best_key, best_fit, best_scale = inl, key, fit, scale
+            frac = min(int(inl.sum()) / n, 1.0 - 1e-9)
             needed = min(
                 _CONSENSUS_TRIALS, int(math.ceil(math.log(0.01) / math.log(1.0 - frac**3)))
             )
     if best is None or best.sum() < 4:
         return None
-    return best, best_fit
+    return best, best_fit, best_scale
+
+
+# Medians of chi-square variables by degrees of freedom.
+_CHI2_MEDIAN = {1: 0.455, 2: 1.386}
+
+
+def _lmeds_variance(sq_norms: np.ndarray, dof: int) -> float:
+    """Noise variance from the median squared norm of a minimal (3-measurement) fit, with
+    Rousseeuw's small-sample factor ``(1 + 5 / (n - 3))^2``."""
+    n = sq_norms.size
+    factor = (1.0 + 5.0 / max(n - 3, 1)) ** 2
+    return max(factor * float(np.median(sq_norms)) / _CHI2_MEDIAN[dof], 1e-300)
+
+
+def _triples(n: int):
+    """Up to ``_CONSENSUS_TRIALS`` index triples: spread over the sequence, then random
+    from a fixed-seed generator (drawn only when needed: most fits stop after a few)."""
+    third = max(n // 3, 1)
+    for i in range(min(n, _CONSENSUS_TRIALS)):
+        yield (i, (i + third) % n, (i + 2 * third) % n)
+    gen = np.random.default_rng(0)
+    for _ in range(_CONSENSUS_TRIALS - n):
+        yield tuple(gen.choice(n, size=3, replace=False).tolist())
