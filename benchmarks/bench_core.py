@@ -8,12 +8,22 @@ from __future__ import annotations
 
 import math
 import statistics
+import sys
 import time
 import timeit
+from pathlib import Path
 
 import numpy as np
 
-from tactile_gym.estimation import JointAxisEstimator, fit_axis_3d, fit_axis_planar
+# Measure the checkout this file is in, not whichever one the environment has installed
+# (git worktrees share one virtual environment).
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from tactile_gym.estimation import (  # noqa: E402
+    JointAxisEstimator,
+    fit_axis_3d,
+    fit_axis_planar,
+)
 
 SIGMA_X = 1e-3  # m
 SIGMA_E = math.radians(1.0)  # rad, total RMS angle error of an edge
@@ -61,17 +71,32 @@ def _per_call_us(fn, number: int) -> float:
     return statistics.median(times) / number * 1e6
 
 
-def _online_us(mode: str, pts: np.ndarray, eds: np.ndarray, prefill: int) -> float:
-    """Median time of one add + estimate on an estimator already holding ``prefill``."""
+def _online_us(
+    mode: str,
+    pts: np.ndarray,
+    eds: np.ndarray,
+    prefill: int,
+    loss: str = "soft_l1",
+    edge_cov: bool = False,
+) -> float:
+    """Median time of one add + estimate on an estimator already holding ``prefill``.
+
+    ``edge_cov``: pass each edge's isotropic covariance explicitly (the validation cost).
+    """
+    covs = [
+        0.5 * SIGMA_E**2 * (np.eye(3) - np.outer(e, e)) / float(e @ e)
+        for e in np.pad(eds, ((0, 0), (0, 3 - eds.shape[1])))
+    ]
     samples = []
     for r in range(REPEATS * 20):
-        est = JointAxisEstimator(mode)
+        est = JointAxisEstimator(mode, loss=loss)
         for x, e in zip(pts[:prefill], eds[:prefill], strict=True):
             est.add(x, e, SIGMA_X, SIGMA_E)
         est.estimate()
-        x, e = pts[prefill + r % (len(pts) - prefill)], eds[prefill + r % (len(pts) - prefill)]
+        i = prefill + r % (len(pts) - prefill)
+        kw = {"edge_cov": covs[i]} if edge_cov else {}
         t0 = time.perf_counter()
-        est.add(x, e, SIGMA_X, SIGMA_E)
+        est.add(pts[i], eds[i], SIGMA_X, SIGMA_E, **kw)
         est.estimate()
         samples.append(time.perf_counter() - t0)
     return statistics.median(samples) * 1e6
@@ -130,6 +155,16 @@ def main() -> None:
             )
         )
     for n in (8, 32):
+        pts, eds = _planar(rng, n)
+        for loss in ("linear", "soft_l1"):
+            us = _per_call_us(
+                lambda p=pts, e=eds, lo=loss: fit_axis_planar(
+                    p, e, point_std=SIGMA_X, edge_std=SIGMA_E, loss=lo
+                ),
+                200,
+            )
+            rows.append((f"fit_axis_planar N={n} loss={loss} (with stds)", us, math.nan, ""))
+    for n in (8, 32):
         pts, eds = _measurements(rng, n)
         for loss in ("linear", "soft_l1"):
             target = 2000.0 if n == 32 else math.nan
@@ -141,15 +176,17 @@ def main() -> None:
             )
             rows.append((f"fit_axis_3d N={n} loss={loss} (with stds)", us, target, ""))
 
-    pts, eds = _planar(rng, 16)
-    rows.append(
-        (
-            "JointAxisEstimator planar add+estimate (N=8)",
-            _online_us("planar", pts, eds, 7),
-            100.0,
-            "",
-        )
-    )
+    planar_online = [
+        # (what, measurements held after the add, loss, explicit edge_cov, target us)
+        ("loss=linear add+estimate", 8, "linear", False, 100.0),
+        ("loss=linear add(edge_cov)+estimate", 8, "linear", True, 100.0),
+        ("loss=soft_l1 add+estimate", 8, "soft_l1", False, math.nan),
+        ("loss=soft_l1 add+estimate", 32, "soft_l1", False, math.nan),
+    ]
+    for what, n, loss, edge_cov, target in planar_online:
+        pts, eds = _planar(rng, n + 8)
+        us = _online_us("planar", pts, eds, n - 1, loss=loss, edge_cov=edge_cov)
+        rows.append((f"JointAxisEstimator planar {what} (N={n})", us, target, ""))
     pts, eds = _measurements(rng, 16)
     rows.append(
         ("JointAxisEstimator 3d add+estimate (N=8)", _online_us("3d", pts, eds, 7), math.nan, "")

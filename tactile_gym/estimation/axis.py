@@ -194,7 +194,7 @@ def as_noise(
         point_std: contact-point std per axis, m: None, a scalar or (N,).
         edge_std: total RMS edge angle error, rad: None, a scalar or (N,).
         edge_cov: None or (N, 3, 3) edge covariances, rad^2 (see :func:`as_edge_covs`).
-        edges: (N, 3) unit edges, world frame.
+        edges: (N, 3) or (N, 2) unit edges, world frame.
 
     Returns:
         ``(point_std (N,), edge_std (N,) or None, edge_cov (N, 3, 3) or None)``, exactly one
@@ -235,9 +235,12 @@ def as_edge_covs(edge_cov: object, edges: np.ndarray) -> np.ndarray:
 
     Each must be finite, symmetric and positive semi-definite (to a relative 1e-9). The
     perturbation of a unit edge is normal to it, so the component along the edge (unit
-    rows of ``edges``, (N, 3)) is projected out: ``(I - e e^T) C (I - e e^T)``.
+    rows of ``edges``, (N, 3), or (N, 2) in the x-y plane) is projected out:
+    ``(I - e e^T) C (I - e e^T)``.
     """
     n = edges.shape[0]
+    if edges.shape[1] == 2:
+        edges = np.column_stack([edges, np.zeros(n)])
     c = np.asarray(edge_cov, dtype=float)
     if c.shape != (n, 3, 3):
         raise ValueError(f"edge_cov must have shape ({n}, 3, 3), got {c.shape}")

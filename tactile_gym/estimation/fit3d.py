@@ -456,15 +456,20 @@ def _whitening_general(prob: _Problem, u: np.ndarray, p: np.ndarray) -> np.ndarr
     fourth = 0.25 * noise.sq_norm
     s11 = s11 + fourth * prob.length**2 + sx2 * noise.mean_var + _VAR_FLOOR
     s22 = s22 + fourth + _VAR_FLOOR
-    # Cholesky of [[s11, s12], [s12, s22]] and its inverse.
+    return _inverse_cholesky(s11, s12, s22) * prob.sqrt_w[:, None]
+
+
+def _inverse_cholesky(s11: np.ndarray, s12: np.ndarray, s22: np.ndarray) -> np.ndarray:
+    """(N, 3) entries (w00, w10, w11) of the inverse of the lower Cholesky factor of each
+    2x2 covariance ``[[s11, s12], [s12, s22]]``: ``(w00 r1, w10 r1 + w11 r2)`` is white."""
     l11 = np.sqrt(s11)
     l21 = s12 / l11
     l22 = np.sqrt(np.maximum(s22 - l21 * l21, _VAR_FLOOR))
-    out = np.empty((n, 3))
+    out = np.empty((s11.shape[0], 3))
     out[:, 0] = 1.0 / l11
     out[:, 1] = -l21 / (l11 * l22)
     out[:, 2] = 1.0 / l22
-    return out * prob.sqrt_w[:, None]
+    return out
 
 
 def _linear_init(prob: _Problem, wh: np.ndarray):
@@ -778,16 +783,10 @@ def _whitening_parallel(prob: _Problem, b1: np.ndarray, b2: np.ndarray) -> np.nd
     else:
         cov = prob.noise.cov
         c1 = cov @ b1
-        s00 = (cov @ b2) @ b2 + _VAR_FLOOR
-        s01 = -(c1 @ b2)
-        s11 = c1 @ b1 + _VAR_FLOOR
-        l00 = np.sqrt(s00)
-        l10 = s01 / l00
-        l11 = np.sqrt(np.maximum(s11 - l10 * l10, _VAR_FLOOR))
         out[:, 0] = 1.0 / np.sqrt(prob.noise.sx**2 + _VAR_FLOOR)
-        out[:, 1] = 1.0 / l00
-        out[:, 2] = -l10 / (l00 * l11)
-        out[:, 3] = 1.0 / l11
+        out[:, 1:] = _inverse_cholesky(
+            (cov @ b2) @ b2 + _VAR_FLOOR, -(c1 @ b2), c1 @ b1 + _VAR_FLOOR
+        )
     return out * prob.sqrt_w[:, None]
 
 

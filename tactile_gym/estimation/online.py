@@ -24,7 +24,10 @@ import numpy as np
 from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs, isotropic_edge_covs
 from tactile_gym.estimation.fit3d import _fit_state, _Noise, _update_state
 from tactile_gym.estimation.fits import (
+    _isotropic_rotation_variance,
     _planar_fit,
+    _robust_planar,
+    _Rows,
     edge_rotation_variance,
     planar_residual_variance,
 )
@@ -39,8 +42,8 @@ MODES = ("planar", "3d")
 # checking identifiability, rad.
 _DISTINCT_TOL = math.radians(0.5)
 
-# The 3d mode redoes the full robust fit (consensus included) once the number of
-# measurements has grown by this factor since the last full fit; in between it refits
+# With a robust loss, both modes redo the full fit (consensus included) once the number of
+# measurements has grown by this factor since the last full fit; in between they refit
 # warm-started from the previous solution.
 _FULL_REFIT_GROWTH = 1.25
 
@@ -59,12 +62,15 @@ class JointAxisEstimator:
     and the fit is not degenerate. Directions are distinct when more than
     ``max(0.5 deg, 3 edge_std)`` apart.
 
-    The planar mode is a weighted linear least-squares fit (no robust loss: ``loss`` only
-    applies to the 3d mode). Results are cached; ``estimate()`` refits only after ``add``.
+    Both modes use ``loss``: with ``"linear"`` the planar mode is a weighted linear
+    least-squares fit, refitted once per update with the residual variances of the previous
+    estimate; with a robust loss it is :func:`~tactile_gym.estimation.fits.fit_axis_planar`'s
+    robust fit (consensus from 6 measurements on). Results are cached; ``estimate()``
+    refits only after ``add``.
 
     Args:
         mode: ``"planar"`` or ``"3d"``.
-        loss: robust loss of the 3d fit, one of ``LOSSES``.
+        loss: loss of the fit, one of ``LOSSES`` (``"linear"``: least squares).
         min_measurements: measurements needed before a first estimate (>= 3).
     """
 
@@ -101,8 +107,10 @@ class JointAxisEstimator:
         self._cached: AxisEstimate | None = None
         self._stale = False
         self._last: AxisEstimate | None = None
-        self._state = None  # 3d mode: fit3d._Solution of the last fit, for warm starts
-        self._n_full = 0  # 3d mode: measurements at the last full (consensus) fit
+        # The last robust solution, for warm starts: 3d mode, a fit3d._Solution; planar
+        # mode, the (theta, sel, sign) of fits._robust_planar.
+        self._state = None
+        self._n_full = 0  # measurements at the last full (consensus) fit
 
     @property
     def n_measurements(self) -> int:
@@ -190,19 +198,24 @@ class JointAxisEstimator:
         if norm <= 1e-12:
             what = "an x-y part" if self.mode == "planar" else "a non-zero length"
             raise ValueError(f"edge must have {what}, got {e.tolist()}")
-        unit = np.array(el)[None] / length
         cov = None
         if edge_cov is not None:
             cov = np.asarray(edge_cov, dtype=float)[None]
             if cov.shape != (1, 3, 3):
                 raise ValueError(f"edge_cov must have shape (3, 3), got {cov.shape[1:]}")
-            cov = as_edge_covs(cov, unit)
+            cov = as_edge_covs(cov, np.array(el)[None] / length)
         if self.mode == "planar":
             # From the edge as given, before its z part goes.
-            noise = edge_rotation_variance(e[None], se, cov)[0]
+            if cov is None:
+                rho2 = (el[0] * el[0] + el[1] * el[1]) / (length * length)
+                noise = _isotropic_rotation_variance(se, rho2, e.shape[0])
+            else:
+                noise = edge_rotation_variance(e[None], se, cov)[0]
             el[2] = 0.0
+        elif cov is None:
+            noise = isotropic_edge_covs(np.array(el)[None] / length, se)[0]
         else:
-            noise = (isotropic_edge_covs(unit, se) if cov is None else cov)[0]
+            noise = cov[0]
         el = [v / norm for v in el]
         if len(xl) == 2:
             xl.append(0.0)
@@ -280,6 +293,14 @@ class JointAxisEstimator:
         e = self._edges[:n]
         sx = self._point_std[:n]
         var_z = self._edge_noise[:n]
+        if self.loss != "linear":
+            # Warm start from the last solution (no consensus) until the measurements have
+            # grown by _FULL_REFIT_GROWTH; every row of the online data is usable.
+            start = self._state if n < self._n_full * _FULL_REFIT_GROWTH else None
+            est, self._state = _robust_planar(_Rows(x, e, None, sx, var_z), self.loss, None, start)
+            if start is None:
+                self._n_full = n
+            return None if est.degenerate else est
         prev = self._last
         passes = 1
         if prev is None or prev.degenerate:
