@@ -6,6 +6,7 @@ with the contact point sliding along the edge between measurements.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import subprocess
 import sys
@@ -34,11 +35,12 @@ def _rot(u: np.ndarray, angle: float) -> np.ndarray:
 
 
 def _perturb_edge(rng: np.random.Generator, e: np.ndarray, sigma: float) -> np.ndarray:
+    """Isotropic edge noise of total RMS angle sigma (sigma / sqrt(2) per normal direction)."""
     a = np.array([1.0, 0.0, 0.0]) if abs(e[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     b1 = np.cross(e, a)
     b1 /= np.linalg.norm(b1)
     b2 = np.cross(e, b1)
-    out = e + rng.normal(0, sigma) * b1 + rng.normal(0, sigma) * b2
+    out = e + rng.normal(0, sigma / math.sqrt(2), 2) @ np.array([b1, b2])
     return out / np.linalg.norm(out)
 
 
@@ -112,20 +114,43 @@ def test_planar_exact_recovery() -> None:
     np.testing.assert_array_equal(est.direction, [0.0, 0.0, 1.0])
 
 
-def test_planar_numpy_and_loop_paths_agree() -> None:
+def _assert_same_estimate(a: AxisEstimate, b: AxisEstimate, rtol: float = 1e-9) -> None:
+    """Every field of two estimates agrees (arrays and floats to rtol, the rest exactly)."""
+    for field in dataclasses.fields(AxisEstimate):
+        va, vb = getattr(a, field.name), getattr(b, field.name)
+        if isinstance(va, (str, bool, int)) or va is None:
+            assert va == vb, field.name
+        else:
+            scale = np.max(np.abs(vb)) if np.size(vb) else 0.0
+            np.testing.assert_allclose(va, vb, rtol=rtol, atol=1e-12 * scale, err_msg=field.name)
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+def test_planar_numpy_and_loop_paths_agree(weighted: bool, monkeypatch) -> None:
     from tactile_gym.estimation import fits
 
     pts, eds = make_planar(np.random.default_rng(1), n=20)
-    w = np.random.default_rng(2).uniform(0.5, 2.0, 20)
+    w = np.random.default_rng(2).uniform(0.5, 2.0, 20) if weighted else None
     fast = fits._planar_fit(pts, eds, w)
-    saved = fits._PLANAR_NUMPY_MIN_N
-    try:
-        fits._PLANAR_NUMPY_MIN_N = 10_000
-        loop = fits._planar_fit(pts, eds, w)
-    finally:
-        fits._PLANAR_NUMPY_MIN_N = saved
-    np.testing.assert_allclose(fast.point, loop.point, atol=1e-12)
-    np.testing.assert_allclose(fast.covariance, loop.covariance, atol=1e-15)
+    monkeypatch.setattr(fits, "_PLANAR_NUMPY_MIN_N", 10_000)
+    loop = fits._planar_fit(pts, eds, w)
+    _assert_same_estimate(loop, fast)
+
+
+@pytest.mark.parametrize("n", [5, 20])
+def test_planar_residual_rms_matches_an_independent_residual(n: int) -> None:
+    """residual_rms and the unweighted covariance from residuals computed here (eq. 16)."""
+    pts, eds = make_planar(np.random.default_rng(3), n=n)
+    est = fit_axis_planar(pts, eds)
+    p, q = est.point[:2]
+    # Signed distance from the axis to each (consistently oriented) edge line minus d.
+    signed = eds[:, 1] * (pts[:, 0] - p) - eds[:, 0] * (pts[:, 1] - q)
+    res = signed - math.copysign(est.distance, np.mean(signed))
+    assert est.residual_rms == pytest.approx(np.sqrt(np.mean(res**2)), rel=1e-9)
+    a = np.column_stack([eds[:, 1], -eds[:, 0], -np.ones(n)])
+    cov = np.linalg.inv(a.T @ a) * (res @ res) / (n - 3)
+    np.testing.assert_allclose(est.covariance[:2, :2], cov[:2, :2], rtol=1e-9)
+    assert est.position_std == pytest.approx(math.sqrt(cov[0, 0] + cov[1, 1]), rel=1e-9)
 
 
 def test_planar_edge_sign_is_resolved_by_continuity() -> None:
@@ -262,43 +287,268 @@ def _tilted_case(rng, sigma_x=SIGMA_X, sigma_e=SIGMA_E, n=12):
     return p, u, pts, eds
 
 
+def _nees_3d(est: AxisEstimate, p: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """NEES of (point, direction) normal to the axis (4 dof) and of each alone (2 dof each).
+
+    Both are compared in a basis (b1, b2) normal to the estimated direction d; the true
+    point is taken where the true axis crosses the plane normal to d through the estimate.
+    """
+    d = est.direction
+    s = np.sign(d @ u)
+    true_point = p + ((est.point - p) @ d) / (u @ d) * u
+    b = np.linalg.svd(d[None, :])[2][1:].T  # (3, 2) orthonormal, normal to d
+    basis = np.zeros((6, 4))
+    basis[:3, :2] = basis[3:, 2:] = b
+    err = basis.T @ np.concatenate([est.point - true_point, d - s * u])
+    cov = basis.T @ est.covariance[:6, :6] @ basis
+    return np.array(
+        [float(e @ np.linalg.solve(c, e)) for e, c in ((err, cov), (err[:2], cov[:2, :2]))]
+        + [float(err[2:] @ np.linalg.solve(cov[2:, 2:], err[2:]))]
+    )
+
+
 def test_3d_nees_is_calibrated() -> None:
     """NEES of (point perpendicular to the axis, direction): 4 dof, mean within 30 %."""
     rng = np.random.default_rng(12)
     nees = []
     for _ in range(200):
         p, u, pts, eds = _tilted_case(rng)
-        est = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E)
-        d = est.direction * np.sign(est.direction @ u)
-        true_point = p - (p @ d) * d  # the true axis' point in the estimate's gauge
-        true_point = true_point - ((true_point - est.point) @ d) * d
-        err = np.concatenate(
-            [est.point - true_point, est.direction - u * np.sign(est.direction @ u)]
+        nees.append(_nees_3d(fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E), p, u))
+    np.testing.assert_allclose(np.mean(nees, axis=0), [4.0, 2.0, 2.0], rtol=0.3)
+
+
+def make_plate(
+    rng: np.random.Generator,
+    geometry: str,
+    face: str,
+    sigma_in: float,
+    sigma_out: float,
+    n: int = 12,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """An edge of a plate that turns 90 degrees about an axis in (or beside) its plane.
+
+    ``geometry``: ``"door"`` (vertical axis, horizontal edge) or ``"tilted"`` (tilted axis,
+    edge oblique to it). ``face``: the probed face, ``"side"`` (the plate's broad face, normal
+    u x e) or ``"top"`` (the narrow face along the edge, normal e x (u x e): a door's top).
+    The edge turns by ``sigma_in`` (rad, RMS) about the face's normal n, within the face, and
+    by ``sigma_out`` out of it; ``edge_cov = sigma_in^2 g g^T + sigma_out^2 n n^T`` with
+    ``g = n x e``, as the sensing builds it.
+
+    Returns:
+        ``(axis_point, axis_dir, points (N, 3), edges (N, 3), edge_cov (N, 3, 3))``.
+    """
+    if geometry == "door":
+        p, u, e0 = np.array([0.4, 0.1, 0.0]), np.array([0.0, 0.0, 1.0]), np.array([1.0, 0, 0])
+    else:
+        p = np.array([0.017, 0.105, 0.03])
+        u = np.array([0.3, -0.2, 1.0]) / np.linalg.norm([0.3, -0.2, 1.0])
+        e0 = np.cross(u, [0.3, 0.9, 0.1])
+        e0 = e0 / np.linalg.norm(e0) + 0.3 * u
+    pts, eds = make_edges_3d(rng, p, u, e0, 0.02, n=n, slide=0.01, sigma_x=SIGMA_X)
+    normal = np.cross(u, eds)
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    if face == "top":
+        normal = np.cross(eds, normal)
+    g = np.cross(normal, eds)
+    noisy = eds + rng.normal(0, sigma_in, (n, 1)) * g + rng.normal(0, sigma_out, (n, 1)) * normal
+    noisy /= np.linalg.norm(noisy, axis=1)[:, None]
+    cov = sigma_in**2 * g[:, :, None] * g[:, None, :]
+    cov += sigma_out**2 * normal[:, :, None] * normal[:, None, :]
+    return p, u, pts, noisy, cov
+
+
+def _edge_std_of(cov: np.ndarray) -> np.ndarray:
+    """The total RMS edge angle error of each covariance, rad."""
+    return np.sqrt(np.trace(cov, axis1=1, axis2=2))
+
+
+def _planar_nees(est: AxisEstimate, p: np.ndarray) -> float:
+    """NEES of the (x, y) position of a vertical axis (2 dof)."""
+    err = est.point[:2] - p[:2]
+    return float(err @ np.linalg.solve(est.covariance[:2, :2], err))
+
+
+def _calibrated(mean_nees: np.ndarray, dof: list[float]) -> bool:
+    return bool(np.allclose(mean_nees, dof, rtol=0.3, atol=0.0))
+
+
+@pytest.mark.parametrize(
+    "geometry, face, sigma_in_deg, sigma_out_deg",
+    [("door", "top", 2.0, 0.2), ("tilted", "side", 1.0, 0.1)],
+)
+def test_3d_nees_with_anisotropic_edge_noise(
+    geometry: str, face: str, sigma_in_deg: float, sigma_out_deg: float
+) -> None:
+    """With edge_cov the mean NEES (4 dof; position and direction 2 dof each) is within
+    30 %; the isotropic model of the same total error fails that check."""
+    rng = np.random.default_rng(31)
+    aniso, iso = [], []
+    for _ in range(100):
+        p, u, pts, eds, cov = make_plate(
+            rng, geometry, face, math.radians(sigma_in_deg), math.radians(sigma_out_deg)
         )
-        cov = est.covariance[:6, :6]
-        vals, vecs = np.linalg.eigh(cov)
-        keep = vals > vals.max() * 1e-10
-        z = vecs[:, keep].T @ err
-        nees.append(float(np.sum(z * z / vals[keep])))
-        assert keep.sum() == 4
-    assert abs(np.mean(nees) - 4.0) <= 0.3 * 4.0
+        aniso.append(_nees_3d(fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_cov=cov), p, u))
+        est = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=_edge_std_of(cov))
+        iso.append(_nees_3d(est, p, u))
+    aniso, iso = np.mean(aniso, axis=0), np.mean(iso, axis=0)
+    assert _calibrated(aniso, [4.0, 2.0, 2.0]), aniso
+    assert not _calibrated(iso, [4.0, 2.0, 2.0]), iso
+
+
+@pytest.mark.parametrize("face", ["top", "side"])
+def test_planar_nees_with_anisotropic_edge_noise(face: str) -> None:
+    """Door-like plate, vertical axis: only the edge's rotation about z matters to the
+    planar fit, all of the in-face noise for the top face, little for the side face."""
+    rng = np.random.default_rng(32)
+    aniso, iso = [], []
+    for _ in range(200):
+        p, u, pts, eds, cov = make_plate(rng, "door", face, math.radians(2), math.radians(0.2))
+        for out, kw in ((aniso, {"edge_cov": cov}), (iso, {"edge_std": _edge_std_of(cov)})):
+            out.append(_planar_nees(fit_axis_planar(pts, eds, point_std=SIGMA_X, **kw), p))
+    assert _calibrated(np.mean(aniso), [2.0]), np.mean(aniso)
+    assert not _calibrated(np.mean(iso), [2.0]), np.mean(iso)
+
+
+def test_online_estimators_use_edge_cov() -> None:
+    """Both modes of JointAxisEstimator with edge_cov: calibrated position NEES."""
+    rng = np.random.default_rng(33)
+    nees = {"planar": [], "3d": []}
+    for trial in range(60):
+        p, u, pts, eds, cov = make_plate(rng, "door", "top", math.radians(2), math.radians(0.2))
+        for mode, out in nees.items():
+            if mode == "3d" and trial >= 20:
+                continue
+            online = JointAxisEstimator(mode, loss="linear")
+            for x, e, c in zip(pts, eds, cov, strict=True):
+                online.add(x, e, SIGMA_X, math.sqrt(np.trace(c)), edge_cov=c)
+            est = online.estimate()
+            out.append(_planar_nees(est, p) if mode == "planar" else _nees_3d(est, p, u)[1])
+    assert _calibrated(np.mean(nees["planar"]), [2.0]), np.mean(nees["planar"])
+    # 20 streams only (3d fits are slow): a looser bound.
+    assert 1.0 < np.mean(nees["3d"]) < 3.5, np.mean(nees["3d"])
+
+
+@pytest.mark.parametrize("fit", [fit_axis_3d, fit_axis_planar])
+def test_isotropic_edge_cov_is_edge_std(fit) -> None:
+    """edge_std means edge_cov = (edge_std^2 / 2) (I - e e^T), for either edge sign."""
+    rng = np.random.default_rng(34)
+    p, u, pts, eds, _ = make_plate(rng, "door", "top", math.radians(2), math.radians(0.2))
+    std = rng.uniform(0.5, 2.0, len(eds)) * math.radians(1.0)
+    cov = 0.5 * std[:, None, None] ** 2 * (np.eye(3) - eds[:, :, None] * eds[:, None, :])
+    by_std = fit(pts, eds, point_std=SIGMA_X, edge_std=std)
+    signs = rng.choice([-1.0, 1.0], size=(len(eds), 1))
+    by_cov = fit(pts, eds * signs, point_std=SIGMA_X, edge_cov=cov)
+    _assert_same_estimate(by_cov, by_std, rtol=1e-7)
+
+
+def test_3d_keeps_edge_signs_where_either_sign_fits() -> None:
+    """Edges normal to the axis whose lines pass through it fit either sign alike (c = k = 0).
+
+    Noise must not pick their signs: a flipped edge shrinks the position covariance far
+    below what the data support. The 3D fit's covariance stays the planar fit's.
+    """
+    rng = np.random.default_rng(6)
+    sigma_e = math.radians(1.0)
+    ratios = []
+    for _ in range(40):
+        pts, eds = make_edges_3d(
+            rng,
+            PAPER_AXIS,
+            np.array([0.0, 0, 1]),
+            np.array([1.0, 0, 0]),
+            0.0,
+            n=12,
+            slide=0.01,
+            sigma_x=SIGMA_X,
+            sigma_e=sigma_e,
+        )
+        full = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=sigma_e)
+        planar = fit_axis_planar(pts, eds, point_std=SIGMA_X, edge_std=sigma_e)
+        ratios.append(np.trace(full.covariance[:2, :2]) / np.trace(planar.covariance[:2, :2]))
+    assert 0.8 < min(ratios) and max(ratios) < 1.25
 
 
 # ------------------------------------------------------------------------- robustness
 
 
-def test_robust_3d_fit_survives_wild_edges() -> None:
+@pytest.mark.parametrize("with_stds", [True, False])
+def test_robust_3d_fit_survives_wild_edges(with_stds: bool) -> None:
+    """With stds, and without (the consensus then ranks by least median of squares)."""
     rng = np.random.default_rng(21)
     robust_pos, linear_pos = [], []
     for _ in range(30):
         p, u, pts, eds = _tilted_case(rng, n=16)
         wild = rng.choice(16, size=4, replace=False)
         eds[wild] = rng.normal(size=(4, 3))
-        kw = dict(point_std=SIGMA_X, edge_std=SIGMA_E)
+        kw = dict(point_std=SIGMA_X, edge_std=SIGMA_E) if with_stds else {}
         robust_pos.append(axis_error(fit_axis_3d(pts, eds, loss="soft_l1", **kw), p, u)[0])
         linear_pos.append(axis_error(fit_axis_3d(pts, eds, loss="linear", **kw), p, u)[0])
     assert np.median(robust_pos) <= 5e-3
     assert np.median(robust_pos) < 0.5 * np.median(linear_pos)
+
+
+def _spoil(
+    rng: np.random.Generator, pts: np.ndarray, eds: np.ndarray, k: int, kind: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Copies with k wild measurements: random edges, points displaced by 2 cm (std per
+    axis), or (``"both"``) alternately one and the other."""
+    pts, eds = pts.copy(), eds.copy()
+    for j, i in enumerate(rng.choice(len(pts), size=k, replace=False)):
+        if kind == "edges" or (kind == "both" and j % 2 == 0):
+            angle = rng.uniform(0.0, 2.0 * math.pi)
+            eds[i] = [math.cos(angle), math.sin(angle)]
+        else:
+            pts[i] += rng.normal(0.0, 0.02, 2)
+    return pts, eds
+
+
+@pytest.mark.parametrize(
+    "kind, with_stds", [("edges", True), ("points", True), ("both", True), ("both", False)]
+)
+def test_robust_planar_fit_survives_wild_measurements(kind: str, with_stds: bool) -> None:
+    """25 % wild measurements in the paper's setting (16 over 90 degrees). Without stds
+    the fit cannot tell the lever-dependent noise of each measurement and does worse."""
+    rng = np.random.default_rng(41)
+    kw = {"point_std": SIGMA_X, "edge_std": SIGMA_E} if with_stds else {}
+    robust, linear = [], []
+    for _ in range(60):
+        pts, eds = _spoil(rng, *make_planar(rng, n=16, slide=0.005), 4, kind)
+        robust.append(_position_error(fit_axis_planar(pts, eds, loss="soft_l1", **kw)))
+        linear.append(_position_error(fit_axis_planar(pts, eds, **kw)))
+    assert np.median(robust) <= (6e-3 if with_stds else 10e-3)
+    assert np.median(linear) >= 2.0 * np.median(robust)
+
+
+def test_robust_planar_fit_is_the_linear_fit_on_clean_data() -> None:
+    """Same answer within noise (a fraction of the std), and a calibrated covariance."""
+    rng = np.random.default_rng(42)
+    shift, nees, used = [], [], []
+    for _ in range(100):
+        pts, eds = make_planar(rng, n=16, slide=0.005)
+        linear = fit_axis_planar(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E)
+        robust = fit_axis_planar(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E, loss="soft_l1")
+        shift.append(np.linalg.norm(robust.point - linear.point) / linear.position_std)
+        nees.append(_planar_nees(robust, PAPER_AXIS))
+        used.append(robust.n_used)
+    # The consensus drops a valid measurement now and then (the 99 % quantile).
+    assert np.mean(used) >= 15.5
+    assert np.median(shift) <= 0.2 and np.percentile(shift, 95) <= 1.0
+    assert _calibrated(np.mean(nees), [2.0]), np.mean(nees)
+
+
+def test_online_planar_uses_the_robust_loss() -> None:
+    """JointAxisEstimator("planar", loss=...) with 25 % wild measurements."""
+    rng = np.random.default_rng(43)
+    errors = {"linear": [], "soft_l1": []}
+    for _ in range(30):
+        pts, eds = _spoil(rng, *make_planar(rng, n=16, slide=0.005), 4, "both")
+        for loss, out in errors.items():
+            online = JointAxisEstimator("planar", loss=loss)
+            for x, e in zip(pts, eds, strict=True):
+                online.add(x, e, SIGMA_X, SIGMA_E)
+            out.append(_position_error(online.estimate()))
+    assert np.median(errors["soft_l1"]) <= 7e-3
+    assert np.median(errors["linear"]) >= 2.0 * np.median(errors["soft_l1"])
 
 
 # ------------------------------------------------------------------------ degenerate data
@@ -320,10 +570,15 @@ def _check_flagged(est: AxisEstimate) -> None:
         ([[0.0, 0.0], [0.1, 0.1], [0.2, 0.5]], [[1.0, 0.0]] * 3),  # all parallel
         ([[0.0, 0.0], [0.1, 0.1], [0.2, 0.5], [0, 1]], [[1, 0], [1, 0], [0, 1], [0, 1]]),
         ([[0.0, 0.0, 0.0]] * 4, [[0.0, 0.0, 1.0]] * 4),  # edges along z: nothing usable
+        ([[0.1, 0.2]] * 8, [[1.0, 0.0]] * 8),  # identical, enough for the consensus
+        ([[0.0, 0.0], [0.1, 0.1], [0.2, 0.5], [0.3, 0.1], [0.5, 0.5], [0.4, 0.4]], [[1, 0]] * 6),
     ],
 )
-def test_planar_degenerate_is_flagged(pts, eds) -> None:
-    _check_flagged(fit_axis_planar(np.array(pts, float), np.array(eds, float)))
+@pytest.mark.parametrize("loss", ["linear", "soft_l1", "cauchy"])
+@pytest.mark.parametrize("with_stds", [False, True])
+def test_planar_degenerate_is_flagged(pts, eds, loss: str, with_stds: bool) -> None:
+    kw = {"point_std": SIGMA_X, "edge_std": SIGMA_E} if with_stds else {}
+    _check_flagged(fit_axis_planar(np.array(pts, float), np.array(eds, float), loss=loss, **kw))
 
 
 @pytest.mark.parametrize(
@@ -469,6 +724,16 @@ def test_online_3d_warm_start_matches_batch_fit(monkeypatch) -> None:
         lambda: fit_axis_3d(np.zeros((4, 3)), np.ones((4, 3)), f_scale=-1.0),
         lambda: fit_axis_3d(np.zeros((4, 3)), np.ones((4, 3)), point_std=1e-3, edge_std=-1),
         lambda: fit_axis_3d(np.zeros((4, 3)), np.zeros((4, 3))),
+        lambda: fit_axis_3d(np.zeros((4, 3)), np.ones((4, 3)), edge_std=0.01),
+        lambda: fit_axis_3d(np.zeros((4, 3)), np.ones((4, 3)), edge_cov=np.zeros((4, 3, 3))),
+        lambda: fit_axis_3d(
+            np.zeros((4, 3)), np.ones((4, 3)), point_std=1e-3, edge_std=0.01, edge_cov=_COVS
+        ),
+        lambda: fit_axis_3d(np.zeros((4, 3)), np.ones((4, 3)), point_std=1e-3, edge_cov=_COVS[0]),
+        lambda: fit_axis_planar(np.zeros((4, 3)), np.ones((4, 3)), point_std=1e-3),
+        lambda: fit_axis_planar(np.zeros((4, 2)), np.ones((4, 2)), loss="l1"),
+        lambda: fit_axis_planar(np.zeros((4, 2)), np.ones((4, 2)), loss="huber", f_scale=0.0),
+        lambda: JointAxisEstimator().add([0, 0, 0], [1, 0, 0], 1e-3, 0.01, edge_cov=np.eye(2)),
         lambda: JointAxisEstimator(mode="2d"),
         lambda: JointAxisEstimator(loss="l2"),
         lambda: JointAxisEstimator(min_measurements=2),
@@ -483,6 +748,76 @@ def test_online_3d_warm_start_matches_batch_fit(monkeypatch) -> None:
 def test_bad_input_raises_value_error(call) -> None:
     with pytest.raises(ValueError):
         call()
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize(
+    "fit, dims, where",
+    [
+        (fit_axis_planar, 2, "points"),
+        (fit_axis_planar, 2, "edges"),
+        (fit_axis_planar, 3, "edges"),
+        (fit_axis_3d, 3, "points"),
+        (fit_axis_3d, 3, "edges"),
+        (fit_axis_simple, 2, "points"),
+    ],
+)
+def test_inf_is_rejected_like_nan(fit, dims: int, where: str, bad: float) -> None:
+    """A non-finite entry in row 2 is a ValueError naming the input and the row."""
+    p, u, pts, eds = _tilted_case(np.random.default_rng(0), n=6)
+    pts, eds = pts[:, :dims].copy(), eds[:, :dims].copy()
+    {"points": pts, "edges": eds}[where][2, 0] = bad
+    with pytest.raises(ValueError, match=rf"{where} must be finite.*rows \[2\]"):
+        fit(pts) if fit is fit_axis_simple else fit(pts, eds)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_online_rejects_non_finite_values(bad: float) -> None:
+    for mode in ("planar", "3d"):
+        est = JointAxisEstimator(mode)
+        with pytest.raises(ValueError, match="finite"):
+            est.add([0.0, bad, 0.0], [1.0, 0.0, 0.0], 1e-3, 0.01)
+        with pytest.raises(ValueError, match="finite"):
+            est.add([0.0, 0.0, 0.0], [1.0, bad, 0.0], 1e-3, 0.01)
+        with pytest.raises(ValueError, match="edge_std"):
+            est.add([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 1e-3, bad)
+        assert est.n_measurements == 0
+    with pytest.raises(ValueError, match="min_measurements"):
+        JointAxisEstimator(min_measurements=bad)
+
+
+def test_planar_overflow_is_a_value_error() -> None:
+    pts = np.array([[1e308, 0.0], [0.0, 1e308], [-1e308, 1e308]])
+    with pytest.raises(ValueError, match="overflow"):
+        fit_axis_planar(pts, [[1.0, 1.0], [1.0, 0.0], [0.0, 1.0]])
+
+
+_COVS = np.stack([1e-4 * np.eye(3)] * 4)
+
+
+@pytest.mark.parametrize(
+    "bad, why",
+    [
+        (np.array([[1e-4, 1e-5, 0], [0, 1e-4, 0], [0, 0, 1e-4]]), "not symmetric"),
+        (-1e-4 * np.eye(3), "negative"),
+        (np.diag([1e-4, -1e-3, 1e-4]), "indefinite"),
+        (np.diag([1e-4, np.nan, 1e-4]), "NaN"),
+        (np.diag([1e-4, np.inf, 1e-4]), "inf"),
+    ],
+)
+def test_bad_edge_cov_is_a_value_error_naming_the_row(bad: np.ndarray, why: str) -> None:
+    edges = np.array([[1.0, 0, 0], [0, 1.0, 0], [1.0, 1.0, 0], [1.0, -1.0, 0]])
+    pts = np.array([[0.1, 0, 0], [0, 0.1, 0], [0.1, 0.1, 0], [0.2, 0, 0]])
+    covs = _COVS.copy()
+    covs[2] = bad
+    for fit in (fit_axis_3d, fit_axis_planar):
+        with pytest.raises(ValueError, match=r"edge_cov.*rows \[2\]"):
+            fit(pts, edges, point_std=1e-3, edge_cov=covs)
+    for mode in ("planar", "3d"):
+        online = JointAxisEstimator(mode)
+        with pytest.raises(ValueError, match=r"edge_cov"):
+            online.add(pts[2], edges[2], 1e-3, 0.01, edge_cov=bad)
+        assert online.n_measurements == 0
 
 
 def test_axis_error_ignores_direction_sign_and_uses_reference_point() -> None:

@@ -3,6 +3,11 @@
 NumPy/SciPy only: this package must import without pybullet or torch, so real robots can
 reuse it. Everything is in the world frame (z up), metres and radians.
 
+Measurement noise: ``point_std`` is the contact-point std per axis (m); ``edge_std`` the
+total RMS angle error of an edge (rad), the noise then isotropic about the edge; or
+``edge_cov`` its (3, 3) covariance (rad^2, world frame, of the perturbation of the unit
+edge), e.g. ``var_in g g^T + var_out n n^T`` for a skin normal n and ``g = n x e``.
+
 * :func:`fit_axis_planar` - the paper's proposed method for an axis along z (eq. 16-21);
 * :func:`fit_axis_simple` - the paper's perpendicular-bisector baseline (eq. 22-26);
 * :func:`fit_axis_3d` - any axis direction (eq. 3, 8, 9-10), robust losses, covariance;
@@ -11,10 +16,16 @@ reuse it. Everything is in the world frame (z up), metres and radians.
 """
 
 from tactile_gym.estimation.axis import COVARIANCE_LAYOUT, AxisEstimate
-from tactile_gym.estimation.fit3d import LOSSES, fit_axis_3d
-from tactile_gym.estimation.fits import fit_axis_planar, fit_axis_simple, planar_residual_variance
+from tactile_gym.estimation.fit3d import fit_axis_3d
+from tactile_gym.estimation.fits import (
+    edge_rotation_variance,
+    fit_axis_planar,
+    fit_axis_simple,
+    planar_residual_variance,
+)
 from tactile_gym.estimation.metrics import axis_error
 from tactile_gym.estimation.online import JointAxisEstimator
+from tactile_gym.estimation.robust import LOSSES
 
 __all__ = [
     "COVARIANCE_LAYOUT",
@@ -22,6 +33,7 @@ __all__ = [
     "AxisEstimate",
     "JointAxisEstimator",
     "axis_error",
+    "edge_rotation_variance",
     "fit_axis_3d",
     "fit_axis_planar",
     "fit_axis_simple",

@@ -32,6 +32,8 @@ COVARIANCE_LAYOUT = (
 )
 """Order of the parameters in :attr:`AxisEstimate.covariance`."""
 
+_EYE3 = np.eye(3)
+
 # Relative singular-value floor below which a design matrix counts as rank deficient.
 DEGENERATE_CONDITION = 1e8
 
@@ -181,6 +183,86 @@ def as_stds(value: object, n: int, name: str, unit: str) -> np.ndarray:
     if not np.isfinite(a).all() or (a < 0).any():
         raise ValueError(f"{name} must be finite and >= 0 {unit}, got {a.tolist()}")
     return a
+
+
+def as_noise(
+    point_std: object, edge_std: object, edge_cov: object, edges: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+    """Validate a fit's noise model: ``point_std`` with ``edge_std`` or ``edge_cov``.
+
+    Args:
+        point_std: contact-point std per axis, m: None, a scalar or (N,).
+        edge_std: total RMS edge angle error, rad: None, a scalar or (N,).
+        edge_cov: None or (N, 3, 3) edge covariances, rad^2 (see :func:`as_edge_covs`).
+        edges: (N, 3) or (N, 2) unit edges, world frame.
+
+    Returns:
+        ``(point_std (N,), edge_std (N,) or None, edge_cov (N, 3, 3) or None)``, exactly one
+        of the last two set; ``(None, None, None)`` when no noise model is given.
+    """
+    if point_std is None and edge_std is None and edge_cov is None:
+        return None, None, None
+    if point_std is None or (edge_std is None) == (edge_cov is None):
+        raise ValueError(
+            "give point_std together with one of edge_std or edge_cov, got "
+            f"point_std={_given(point_std)}, edge_std={_given(edge_std)}, "
+            f"edge_cov={_given(edge_cov)}"
+        )
+    n = edges.shape[0]
+    sx = as_stds(point_std, n, "point_std", "m")
+    if edge_cov is None:
+        return sx, as_stds(edge_std, n, "edge_std", "rad"), None
+    return sx, None, as_edge_covs(edge_cov, edges)
+
+
+def _given(value: object) -> str:
+    return "None" if value is None else "given"
+
+
+def isotropic_edge_covs(edges: np.ndarray, edge_std: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) covariances of isotropic edge noise, ``(edge_std^2 / 2) (I - e e^T)``, rad^2.
+
+    Args:
+        edges: (N, 3) unit edge directions, world frame.
+        edge_std: total RMS angle error of each edge, rad; scalar or (N,).
+    """
+    proj = _EYE3 - edges[:, :, None] * edges[:, None, :]
+    return proj * np.reshape(0.5 * np.square(edge_std), (-1, 1, 1))
+
+
+def as_edge_covs(edge_cov: object, edges: np.ndarray) -> np.ndarray:
+    """Validate (N, 3, 3) edge covariances, rad^2, and keep their part normal to the edges.
+
+    Each must be finite, symmetric and positive semi-definite (to a relative 1e-9). The
+    perturbation of a unit edge is normal to it, so the component along the edge (unit
+    rows of ``edges``, (N, 3), or (N, 2) in the x-y plane) is projected out:
+    ``(I - e e^T) C (I - e e^T)``.
+    """
+    n = edges.shape[0]
+    if edges.shape[1] == 2:
+        edges = np.column_stack([edges, np.zeros(n)])
+    c = np.asarray(edge_cov, dtype=float)
+    if c.shape != (n, 3, 3):
+        raise ValueError(f"edge_cov must have shape ({n}, 3, 3), got {c.shape}")
+    ct = c.transpose(0, 2, 1)
+    with np.errstate(invalid="ignore"):
+        scale = np.abs(c).max(axis=(1, 2), initial=0.0)
+        bad = ~(np.abs(c - ct).max(axis=(1, 2), initial=0.0) <= 1e-9 * scale)
+    if not bad.any():
+        proj = _EYE3 - edges[:, :, None] * edges[:, None, :]
+        c = proj @ (c + ct) @ proj
+        c *= 0.5
+        # The projected C has the eigenvalue 0 along e; the other two are >= 0 exactly when
+        # their sum (the trace) and product ((tr^2 - |C|_F^2) / 2) are.
+        tr = c[:, 0, 0] + c[:, 1, 1] + c[:, 2, 2]
+        f2 = np.square(c).sum(axis=(1, 2))
+        bad = (tr < -1e-9 * scale) | (tr * tr - f2 < -1e-9 * scale * scale)
+    if bad.any():
+        raise ValueError(
+            "edge_cov must hold finite, symmetric, positive semi-definite matrices (rad^2), "
+            f"got rows {np.flatnonzero(bad).tolist()} that are not"
+        )
+    return c
 
 
 def as_weights(weights: object, n: int) -> np.ndarray:

@@ -26,17 +26,18 @@ point-to-axis distance ``|(x_i - p) x u| - d`` and the edge-axis misalignment
 Solution. A closed-form initial guess: r1 and r2 are linear and homogeneous in
 ``z = (u, m_a, c, k)``, so the guess comes from the two smallest right singular vectors of
 the stacked system (the second one is the gauge ``m_a -> m_a + s u``, ``k -> k + s c``),
-followed by ``|u| = 1`` and ``u . m_a = 0``. It is refined by
-``scipy.optimize.least_squares`` over a minimal local parameterisation: u moved by two
-small angles in a basis normal to the current u, p by two offsets in that plane (the point
-along the axis is a gauge, fixed by ``p . u = 0``), plus (k, c) or d.
+followed by ``|u| = 1`` and ``u . m_a = 0``. It is refined over a minimal local
+parameterisation: u moved by two small angles in a basis normal to the current u, p by two
+offsets in that plane (the point along the axis is a gauge, fixed by ``p . u = 0``), plus
+(k, c) or d; by a plain-NumPy Levenberg-Marquardt in the general case and by
+``scipy.optimize.least_squares`` in the parallel case.
 
-Weights. With ``point_std`` (m) and ``edge_std`` (rad) the 2x2 covariance of (r1, r2) of
-each measurement is predicted at the current axis (isotropic point noise, edge noise of
-``edge_std`` in each of the two directions normal to the edge) and the residuals are
-whitened by it; the covariance of the result is then absolute. Without stds, r2 is scaled
-by the RMS spread of the contact points (a length) and one common noise level is estimated
-from the residuals.
+Weights. With ``point_std`` (m) and ``edge_std`` or ``edge_cov`` (rad, rad^2) the 2x2
+covariance of (r1, r2) of each measurement is predicted at the current axis (isotropic
+point noise; the edge noise ``edge_cov``, isotropic about the edge when only ``edge_std``
+is given, see :func:`fit_axis_3d`) and the residuals are whitened by it; the covariance of
+the result is then absolute. Without stds, r2 is scaled by the RMS spread of the contact
+points (a length) and one common noise level is estimated from the residuals.
 """
 
 from __future__ import annotations
@@ -49,20 +50,27 @@ from scipy.optimize import least_squares
 from tactile_gym.estimation.axis import (
     DEGENERATE_CONDITION,
     AxisEstimate,
+    as_noise,
     as_points,
-    as_stds,
     as_unit_edges,
     as_weights,
     canonical_direction,
     degenerate_estimate,
+    isotropic_edge_covs,
     stds_from_covariance,
+)
+from tactile_gym.estimation.robust import (
+    CHI2_99,
+    check_loss,
+    consensus,
+    loss_cost,
+    mad_f_scale,
+    robust_weights,
+    sign_flips,
 )
 from tactile_gym.spatial import orient_edges
 
-__all__ = ["fit_axis_3d", "LOSSES"]
-
-LOSSES = ("linear", "soft_l1", "huber", "cauchy")
-"""Loss functions accepted by :func:`fit_axis_3d` (those of scipy's least_squares)."""
+__all__ = ["fit_axis_3d"]
 
 _DEFAULT_PARALLEL_TOL = math.radians(1.0)
 _VAR_FLOOR = 1e-24
@@ -75,6 +83,7 @@ def fit_axis_3d(
     *,
     point_std: np.ndarray | float | None = None,
     edge_std: np.ndarray | float | None = None,
+    edge_cov: np.ndarray | None = None,
     loss: str = "linear",
     f_scale: float | None = None,
     parallel_tol: float = _DEFAULT_PARALLEL_TOL,
@@ -88,9 +97,14 @@ def fit_axis_3d(
             as described under ``resolve_signs``).
         weights: optional (N,) relative weights >= 0 (dimensionless multipliers of each
             measurement's inverse variance; 0 drops it).
-        point_std: contact-point std per axis, m; scalar or (N,). With ``edge_std``.
-        edge_std: edge-direction std (each of the two directions normal to the edge), rad;
-            scalar or (N,). With ``point_std``.
+        point_std: contact-point std per axis, m; scalar or (N,). With ``edge_std`` or
+            ``edge_cov``.
+        edge_std: total RMS angle error of each edge, rad; scalar or (N,). The noise is then
+            isotropic about the edge: ``edge_cov = (edge_std^2 / 2) (I - e e^T)``. (Before
+            edge_cov existed this was the std in each of the two normal directions.)
+        edge_cov: alternative to ``edge_std``: (N, 3, 3) covariance of the perturbation of
+            each unit edge (normal to it), world frame, rad^2; ``edge_std^2`` is its trace.
+            The part along the edge is ignored, and it holds for either sign of the edge.
         loss: ``"linear"`` (least squares) or a robust loss of scipy's least_squares:
             ``"soft_l1"``, ``"huber"``, ``"cauchy"``. With a robust loss and N >= 6 a
             RANSAC-style consensus over 3-line closed-form fits (fixed seed, adaptive
@@ -101,7 +115,8 @@ def fit_axis_3d(
             MAD-based noise estimate from the initial guess).
         parallel_tol: the edges count as parallel to the axis (eq. 9-10 model) when all of
             them (robust losses: two thirds) lie within
-            ``max(parallel_tol, 4 * median(edge_std))`` rad of their mean direction.
+            ``max(parallel_tol, 4 * s)`` rad of their mean direction, where s is the median
+            over the measurements of the edge std in its worst direction.
         resolve_signs: orient each edge like the best-aligned of the previous
             ``SIGN_LOOKBACK`` (already oriented) edges; a wild edge then cannot flip all
             that follow. Pass False for edges already oriented consistently.
@@ -114,48 +129,69 @@ def fit_axis_3d(
 
     Raises:
         ValueError: on malformed input (shapes, non-finite values, zero edges, negative
-            stds or weights, unknown loss, f_scale <= 0).
+            stds or weights, an edge_cov not symmetric positive semi-definite, unknown
+            loss, f_scale <= 0).
     """
     x = as_points(points, "points", dims=(3,))
     n = x.shape[0]
     e = as_unit_edges(edges, n, dims=(3,))
-    if loss not in LOSSES:
-        raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
-    if f_scale is not None and not (math.isfinite(f_scale) and f_scale > 0):
-        raise ValueError(f"f_scale must be a finite number > 0, got {f_scale!r}")
+    check_loss(loss, f_scale)
     if not (math.isfinite(parallel_tol) and 0 <= parallel_tol < math.pi / 2):
         raise ValueError(f"parallel_tol must be in [0, pi/2) rad, got {parallel_tol!r}")
-    if (point_std is None) != (edge_std is None):
-        raise ValueError("point_std and edge_std must be given together")
+    sx, se, cov = as_noise(point_std, edge_std, edge_cov, e)
+    noise = None if sx is None else _Noise(sx, isotropic_edge_covs(e, se) if cov is None else cov)
     w = np.ones(n) if weights is None else as_weights(weights, n)
-    if point_std is None:
-        sx = se = None
-    else:
-        sx = as_stds(point_std, n, "point_std", "m")
-        se = as_stds(edge_std, n, "edge_std", "rad")
     keep = w > 0
     if not keep.all():
         x, e, w = x[keep], e[keep], w[keep]
-        if sx is not None:
-            sx, se = sx[keep], se[keep]
+        if noise is not None:
+            noise = noise.take(keep)
     if resolve_signs:
         e = orient_edges(e)
-    return _fit(x, e, w, sx, se, loss, f_scale, parallel_tol)
+    return _fit_state(x, e, w, noise, loss, f_scale, parallel_tol)[0]
 
 
 # ------------------------------------------------------------------------------ the solver
 
 
-class _Problem:
-    """Centred, validated data plus what the residual functions need."""
+class _Noise:
+    """Predicted noise of each measurement (all sign-invariant in the edge).
 
-    def __init__(self, x, e, w, sx, se, loss, f_scale):
+    ``sx``: (N,) contact-point std per axis, m; ``cov``: (N, 3, 3) edge covariance, rad^2,
+    normal to the edge; ``mean_var``: (N,) its mean variance per normal direction
+    (``trace / 2``); ``sq_norm``: (N,) its squared Frobenius norm, rad^4.
+    """
+
+    __slots__ = ("sx", "cov", "mean_var", "sq_norm")
+
+    def __init__(self, sx: np.ndarray, cov: np.ndarray):
+        self.sx = sx
+        self.cov = cov
+        self.mean_var = 0.5 * (cov[:, 0, 0] + cov[:, 1, 1] + cov[:, 2, 2])
+        self.sq_norm = np.square(cov).sum(axis=(1, 2))
+
+    def take(self, idx) -> _Noise:
+        return _Noise(self.sx[idx], self.cov[idx])
+
+    def worst_edge_std(self) -> np.ndarray:
+        """(N,) edge std in the worst direction, rad (the root of cov's largest eigenvalue)."""
+        # Eigenvalues 0, a, b with a + b = 2 mean_var and a^2 + b^2 = sq_norm.
+        spread = np.sqrt(np.maximum(0.5 * self.sq_norm - self.mean_var**2, 0.0))
+        return np.sqrt(self.mean_var + spread)
+
+
+class _Problem:
+    """Centred, validated data plus what the residual functions need.
+
+    ``noise`` is a :class:`_Noise`, or None when no stds were given.
+    """
+
+    def __init__(self, x, e, w, noise, loss, f_scale):
         self.centre = x.mean(axis=0)
         self.x = x - self.centre
         self.e = e
         self.sqrt_w = np.sqrt(w)
-        self.sx = sx
-        self.se = se
+        self.noise = noise
         self.loss = loss
         spread = float(np.sqrt(np.mean(np.einsum("ij,ij->i", self.x, self.x))))
         self.length = max(spread, 1e-3)
@@ -174,10 +210,6 @@ class _Problem:
         self.xe = _design(self.x, value)
 
 
-def _fit(x, e, w, sx, se, loss, f_scale, parallel_tol) -> AxisEstimate:
-    return _fit_state(x, e, w, sx, se, loss, f_scale, parallel_tol)[0]
-
-
 class _Solution:
     """What a general-case fit ended with, for warm starts (the online estimator).
 
@@ -191,13 +223,16 @@ class _Solution:
         self.mask, self.edges, self.u, self.p, self.k, self.c = mask, edges, u, p, k, c
 
 
-def _fit_state(x, e, w, sx, se, loss, f_scale, parallel_tol):
-    """:func:`_fit` plus the :class:`_Solution` of a general-case fit (else None)."""
+def _fit_state(x, e, w, noise, loss, f_scale, parallel_tol):
+    """The estimate of validated, oriented data and the :class:`_Solution` of a
+    general-case fit (else None)."""
     n = x.shape[0]
     if n < 3:
         return degenerate_estimate("3d", n, planar=False), None
-    prob = _Problem(x, e, w, sx, se, loss, f_scale)
-    tol = parallel_tol if se is None else max(parallel_tol, 4.0 * float(np.median(se)))
+    prob = _Problem(x, e, w, noise, loss, f_scale)
+    tol = parallel_tol
+    if noise is not None:
+        tol = max(tol, 4.0 * float(np.median(noise.worst_edge_std())))
     mean_dir, frac = _parallel_fraction(e, tol)
     need = 1.0 if loss == "linear" else 2.0 / 3.0
     if frac >= need:
@@ -208,7 +243,7 @@ def _fit_state(x, e, w, sx, se, loss, f_scale, parallel_tol):
         if found is not None and not found[0].all():
             inliers, signs = found
             e = e * signs[:, None]
-            est, sub = _fit_subset(x, e, w, sx, se, loss, f_scale, inliers)
+            est, sub = _fit_subset(x, e, w, noise, loss, f_scale, inliers)
             if est.degenerate:
                 return est, None
             mask = inliers
@@ -218,9 +253,9 @@ def _fit_state(x, e, w, sx, se, loss, f_scale, parallel_tol):
             pc = pc - (pc @ u) * u
             k, c = _invariants(prob.x, e, u, pc)
             prob.e = e
-            again = _whitened_norms(prob, u, pc, k, c) < _CHI2_2DOF_99
+            again = np.minimum(*_sign_norms(prob, u, pc, k, c)) < CHI2_99[2]
             if (again != inliers).any() and again.sum() >= 4:
-                est, sub = _fit_subset(x, e, w, sx, se, loss, f_scale, again)
+                est, sub = _fit_subset(x, e, w, noise, loss, f_scale, again)
                 mask = again
             return est, _solution_of(sub, mask, e)
     est = _fit_general(prob)
@@ -237,26 +272,21 @@ def _solution_of(prob, mask, e) -> _Solution | None:
     return _Solution(mask, edges, u, q - (q @ u) * u, k, c)
 
 
-def _fit_subset(x, e, w, sx, se, loss, f_scale, mask):
+def _fit_subset(x, e, w, noise, loss, f_scale, mask):
     sub = _Problem(
-        x[mask],
-        e[mask],
-        w[mask],
-        None if sx is None else sx[mask],
-        None if se is None else se[mask],
-        loss,
-        f_scale,
+        x[mask], e[mask], w[mask], None if noise is None else noise.take(mask), loss, f_scale
     )
     return _fit_general(sub), sub
 
 
-def _update_state(x, e, sx, se, loss, state: _Solution):
+def _update_state(x, e, noise: _Noise, loss, state: _Solution):
     """Warm-started general-case refit after measurements were appended to those of state.
 
-    ``x``, ``e`` (edges oriented by continuity), ``sx``, ``se`` hold all N measurements,
-    the first ``len(state.mask)`` of them those of ``state``. Each new measurement takes
-    the edge sign that fits ``state`` better; the fit then starts from ``state`` on its
-    measurements plus the new ones and uses the same solver as :func:`fit_axis_3d`.
+    ``x``, ``e`` (edges oriented by continuity) and ``noise`` hold all N measurements,
+    the first ``len(state.mask)`` of them those of ``state``. Each new measurement keeps
+    its edge sign unless it fits far better flipped under ``state`` (``sign_flips``); the
+    fit then starts from ``state`` on its measurements plus the new ones and uses the same
+    solver as :func:`fit_axis_3d`.
     Returns (estimate, solution), or None when a full refit is called for: a robust loss
     and a new measurement that is an outlier under ``state`` (the inlier set may be
     changing), or a degenerate result.
@@ -265,32 +295,25 @@ def _update_state(x, e, sx, se, loss, state: _Solution):
     n = x.shape[0]
     mask = np.concatenate([state.mask, np.ones(n - n_old, dtype=bool)])
     edges = np.concatenate([state.edges, e[n_old:]])
-    prob = _Problem(x[mask], edges[mask], np.ones(int(mask.sum())), sx[mask], se[mask], loss, None)
+    prob = _Problem(x[mask], edges[mask], np.ones(int(mask.sum())), noise.take(mask), loss, None)
     u = state.u
     p = state.p - prob.centre
     p = p - (p @ u) * u
     k, c = state.k, state.c
     # The new rows are the last ones of prob.
     m = n - n_old
-    xn, en = prob.x[-m:], prob.e[-m:]
-    d = np.einsum("ij,ij->i", xn - p, _cross(en, u[None, :]))
-    a = en @ u
-    length = prob.length
-    flip = (d + k) ** 2 + (length * (a + c)) ** 2 < (d - k) ** 2 + (length * (a - c)) ** 2
+    wh = _whitening_general(prob, u, p)
+    keep, flipped = _sign_norms(prob, u, p, k, c, wh)
+    keep, flipped = keep[-m:], flipped[-m:]
+    flip = sign_flips(keep, flipped, 2)
     if flip.any():
         sign = np.where(flip, -1.0, 1.0)
         edges[n_old:] *= sign[:, None]
         ep = prob.e.copy()
         ep[-m:] *= sign[:, None]
         prob.e = ep
-    wh = _whitening_general(prob, u, p)
-    if loss != "linear":
-        r1 = np.where(flip, -d, d) - k
-        r2 = np.where(flip, -a, a) - c
-        z1 = wh[-m:, 0] * r1
-        z2 = wh[-m:, 1] * r1 + wh[-m:, 2] * r2
-        if (z1 * z1 + z2 * z2 >= _CHI2_2DOF_99).any():
-            return None
+    if loss != "linear" and (np.where(flip, flipped, keep) >= CHI2_99[2]).any():
+        return None
     u, p, k, c, wh = _refine_general(prob, u, p, k, c, wh)
     est = _finish_general(prob, u, p, k, c, wh)
     if est.degenerate:
@@ -305,82 +328,65 @@ def _invariants(x, e, u, p) -> tuple[float, float]:
     return k, float(np.median(e @ u))
 
 
-# Squared whitened residual norm (2 dof) beyond which a measurement is an outlier: the
-# chi-square 99 % quantile.
-_CHI2_2DOF_99 = 9.21
-_CONSENSUS_TRIALS = 24
-
-
 def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
-    """Inlier mask and edge signs (+-1) of the best minimal (3-line) closed-form fit, RANSAC-style.
+    """Inlier mask and edge signs (+-1) of the best minimal (3-line) closed-form fit
+    (:func:`~tactile_gym.estimation.robust.consensus`).
 
     A per-residual robust loss is not enough here: for nearly planar motion an axis lying
     in the plane of the contacts zeroes every reciprocal-product residual, and wild edges
-    then make that wrong axis cheaper under L1-like losses. Candidate triples are spread
-    over the sequence (deterministically, then from a fixed-seed generator), so results
-    are reproducible.
+    then make that wrong axis cheaper under L1-like losses.
     """
-    n = prob.n
-    third = max(n // 3, 1)
-    triples = [(i, (i + third) % n, (i + 2 * third) % n) for i in range(n)]
-    gen = np.random.default_rng(0)
-    while len(triples) < _CONSENSUS_TRIALS:
-        triples.append(tuple(gen.choice(n, size=3, replace=False).tolist()))
-    best, best_key = None, None
-    needed = _CONSENSUS_TRIALS
-    for trial, tri in enumerate(triples[:_CONSENSUS_TRIALS]):
-        if trial >= needed:
-            break
-        idx = np.array(tri)
-        if len(set(tri)) < 3:
-            continue
+
+    def fit_triple(idx):
         sub = _Problem.__new__(_Problem)
         sub.__dict__.update(prob.__dict__)
         sub.x, sub.n = prob.x[idx], 3
         sub.e = prob.e[idx]
         sub.sqrt_w = prob.sqrt_w[idx]
-        sub.sx = None if prob.sx is None else prob.sx[idx]
-        sub.se = None if prob.se is None else prob.se[idx]
+        sub.noise = None if prob.noise is None else prob.noise.take(idx)
         sub.loss = "linear"
-        init = _linear_init(sub, _whitening_scale_only(sub))
-        if init is None:
-            continue
-        u, p, k, c = init
-        z = _whitened_norms(prob, u, p, k, c)
-        if prob.sx is None:
-            z = z / max(float(np.median(z)), 1e-30) * 0.5
-        inl = z < _CHI2_2DOF_99
-        key = (int(inl.sum()), -float(np.minimum(z, _CHI2_2DOF_99).sum()))
-        if best_key is None or key > best_key:
-            best, best_key, best_fit = inl, key, (u, p, k, c)
-            # Adaptive stop: enough trials for a 99 % chance of one all-inlier triple.
-            frac = min(best_key[0] / n, 1.0 - 1e-9)
-            needed = min(
-                _CONSENSUS_TRIALS, int(math.ceil(math.log(0.01) / math.log(1.0 - frac**3)))
-            )
-    if best is None or best.sum() < 4:
+        return _linear_init(sub, _whitening_scale_only(sub))
+
+    def sq_norms(fit):
+        return np.minimum(*_sign_norms(prob, *fit, raw=True))
+
+    found = consensus(prob.n, fit_triple, sq_norms, 2, whitened=prob.noise is not None)
+    if found is None:
         return None
-    u, p, k, c = best_fit
-    d = np.einsum("ij,ij->i", prob.x - p, _cross(prob.e, u[None, :]))
-    a = prob.e @ u
-    flip = (d + k) ** 2 + (prob.length * (a + c)) ** 2 < (d - k) ** 2 + (prob.length * (a - c)) ** 2
-    return best, np.where(flip, -1.0, 1.0)
+    inliers, fit, scale = found
+    keep, flipped = _sign_norms(prob, *fit, raw=True)
+    return inliers, np.where(sign_flips(keep / scale, flipped / scale, 2), -1.0, 1.0)
 
 
-def _whitened_norms(prob: _Problem, u, p, k, c) -> np.ndarray:
-    """Squared whitened (r1, r2) norm per measurement, the better of both edge signs."""
-    wh = _whitening_general(prob, u, p) if prob.sx is not None else _whitening_scale_only(prob)
+def _sign_norms(
+    prob: _Problem, u, p, k, c, wh=None, raw: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """Squared whitened (r1, r2) norms per measurement: each edge as oriented, and flipped.
+
+    ``wh``: the whitening at (u, p) when already computed. Without stds the norms are
+    scaled so that the median of the better of the two is 0.5 (a noise level from the
+    residuals of a fitted axis), unless ``raw``.
+    """
+    if wh is None:
+        wh = (
+            _whitening_general(prob, u, p)
+            if prob.noise is not None
+            else _whitening_scale_only(prob)
+        )
     d = np.einsum("ij,ij->i", prob.x - p, _cross(prob.e, u[None, :]))
     a = prob.e @ u
-    out = None
+    out = []
     for sgn in (1.0, -1.0):
         r1 = sgn * d - k
         r2 = sgn * a - c
         z1 = wh[:, 0] * r1
         z2 = wh[:, 1] * r1 + wh[:, 2] * r2
-        z = z1 * z1 + z2 * z2
-        out = z if out is None else np.minimum(out, z)
-    return out
+        out.append(z1 * z1 + z2 * z2)
+    keep, flipped = out
+    if prob.noise is None and not raw:
+        scale = 0.5 / max(float(np.median(np.minimum(keep, flipped))), 1e-30)
+        keep, flipped = keep * scale, flipped * scale
+    return keep, flipped
 
 
 def _parallel_fraction(e: np.ndarray, tol: float) -> tuple[np.ndarray, float]:
@@ -428,35 +434,42 @@ def _whitening_general(prob: _Problem, u: np.ndarray, p: np.ndarray) -> np.ndarr
     Whitened residuals are ``(w00 r1, w10 r1 + w11 r2)``.
     """
     n = prob.n
-    if prob.sx is None:
+    if prob.noise is None:
         out = np.empty((n, 3))
         out[:, 0] = 1.0
         out[:, 1] = 0.0
         out[:, 2] = prob.length
         return out * prob.sqrt_w[:, None]
-    e = prob.e
+    noise = prob.noise
     wv = prob.x - p
-    nrm = _cross(e, u[None, :])
+    nrm = _cross(prob.e, u[None, :])
+    # r1 = e . (u x (x - p)) and r2 = e . u: their gradients in e are g and u, and
+    # noise.cov holds only the edge's normal directions.
     g = _cross(np.broadcast_to(u, wv.shape), wv)
-    g_perp = g - np.einsum("ij,ij->i", g, e)[:, None] * e
-    u_perp = u - (e @ u)[:, None] * e
-    sx2 = prob.sx**2
-    se2 = prob.se**2
-    s11 = sx2 * np.einsum("ij,ij->i", nrm, nrm) + se2 * np.einsum("ij,ij->i", g_perp, g_perp)
-    s22 = se2 * np.einsum("ij,ij->i", u_perp, u_perp)
-    s12 = se2 * np.einsum("ij,ij->i", g_perp, u_perp)
-    # Second-order floors: at theta = 0 the first-order variances vanish.
-    s11 = s11 + 0.5 * se2 * se2 * prob.length**2 + sx2 * se2 + _VAR_FLOOR
-    s22 = s22 + 0.5 * se2 * se2 + _VAR_FLOOR
-    # Cholesky of [[s11, s12], [s12, s22]] and its inverse.
+    cu = noise.cov @ u
+    sx2 = noise.sx**2
+    s11 = sx2 * np.einsum("ij,ij->i", nrm, nrm) + np.einsum("ij,ijk,ik->i", g, noise.cov, g)
+    s22 = cu @ u
+    s12 = np.einsum("ij,ij->i", g, cu)
+    # Second-order floors: at theta = 0 the first-order variances vanish. Half the squared
+    # norm of cov is the mean squared variance per normal direction.
+    fourth = 0.25 * noise.sq_norm
+    s11 = s11 + fourth * prob.length**2 + sx2 * noise.mean_var + _VAR_FLOOR
+    s22 = s22 + fourth + _VAR_FLOOR
+    return _inverse_cholesky(s11, s12, s22) * prob.sqrt_w[:, None]
+
+
+def _inverse_cholesky(s11: np.ndarray, s12: np.ndarray, s22: np.ndarray) -> np.ndarray:
+    """(N, 3) entries (w00, w10, w11) of the inverse of the lower Cholesky factor of each
+    2x2 covariance ``[[s11, s12], [s12, s22]]``: ``(w00 r1, w10 r1 + w11 r2)`` is white."""
     l11 = np.sqrt(s11)
     l21 = s12 / l11
     l22 = np.sqrt(np.maximum(s22 - l21 * l21, _VAR_FLOOR))
-    out = np.empty((n, 3))
+    out = np.empty((s11.shape[0], 3))
     out[:, 0] = 1.0 / l11
     out[:, 1] = -l21 / (l11 * l22)
     out[:, 2] = 1.0 / l22
-    return out * prob.sqrt_w[:, None]
+    return out
 
 
 def _linear_init(prob: _Problem, wh: np.ndarray):
@@ -551,20 +564,6 @@ def _linearise(prob, wh, u, p, k, c, jacobian=True):
     return z, jm, b1, b2
 
 
-def _loss_cost(z: np.ndarray, loss: str, f_scale: float) -> float:
-    """scipy's least_squares cost ``0.5 f^2 sum rho((z / f)^2)`` of whitened residuals."""
-    if loss == "linear":
-        return 0.5 * float(z @ z)
-    s = (z / f_scale) ** 2
-    if loss == "soft_l1":
-        rho = 2.0 * (np.sqrt(1.0 + s) - 1.0)
-    elif loss == "huber":
-        rho = np.where(s <= 1.0, s, 2.0 * np.sqrt(s) - 1.0)
-    else:  # cauchy
-        rho = np.log1p(s)
-    return 0.5 * f_scale * f_scale * float(rho.sum())
-
-
 _SOLVER_MAX_ITER = 50
 
 
@@ -580,7 +579,7 @@ def _solve_general(prob, wh, u, p, k, c, f_scale):
     """
     loss = prob.loss
     z, jm, b1, b2 = _linearise(prob, wh, u, p, k, c)
-    cost = _loss_cost(z, loss, f_scale)
+    cost = loss_cost(z, loss, f_scale)
     # Damping: Nielsen's rule, from 0 (pure Gauss-Newton, what a good start needs).
     lam, nu = 0.0, 2.0
     ang_tol = 1e-11
@@ -590,7 +589,7 @@ def _solve_general(prob, wh, u, p, k, c, f_scale):
             g = jm.T @ z
             h = jm.T @ jm
         else:
-            rw, hw = _robust_weights(z, loss, f_scale, curvature=True)
+            rw, hw = robust_weights(z, loss, f_scale, curvature=True)
             g = jm.T @ (rw * z)
             h = (jm * hw[:, None]).T @ jm
         dh = np.diag(h).copy()
@@ -609,7 +608,7 @@ def _solve_general(prob, wh, u, p, k, c, f_scale):
             pn = pn - (pn @ un) * un
             kn, cn = k + sl[4], c + sl[5]
             zn, _, _, _ = _linearise(prob, wh, un, pn, kn, cn, jacobian=False)
-            new = _loss_cost(zn, loss, f_scale)
+            new = loss_cost(zn, loss, f_scale)
             if new <= cost:
                 pred = -float(step @ g) - 0.5 * float(step @ (h @ step))
                 ratio = (cost - new) / pred if pred > 0 else 1.0
@@ -637,7 +636,7 @@ def _fit_general(prob: _Problem) -> AxisEstimate:
     if init is None:
         return degenerate_estimate("3d", prob.n, planar=False)
     u, p, k, c = init
-    if prob.sx is not None:
+    if prob.noise is not None:
         wh = _whitening_general(prob, u, p)
     u, p, k, c, wh = _refine_general(prob, u, p, k, c, wh)
     # Re-orient edges that fit the other way round (a wild edge between two good ones can
@@ -652,10 +651,11 @@ def _fit_general(prob: _Problem) -> AxisEstimate:
 
 def _whitening_scale_only(prob: _Problem) -> np.ndarray:
     """Whitening before any axis is known: r1 ~ sigma_x + L sigma_e, r2 ~ sigma_e."""
-    if prob.sx is None:
+    if prob.noise is None:
         return _whitening_general(prob, np.zeros(3), np.zeros(3))
-    s1 = np.sqrt(prob.sx**2 + (prob.length * prob.se) ** 2 + _VAR_FLOOR)
-    s2 = np.sqrt(prob.se**2 + _VAR_FLOOR)
+    var_e = prob.noise.mean_var
+    s1 = np.sqrt(prob.noise.sx**2 + prob.length**2 * var_e + _VAR_FLOOR)
+    s2 = np.sqrt(var_e + _VAR_FLOOR)
     out = np.zeros((prob.n, 3))
     out[:, 0] = 1.0 / s1
     out[:, 2] = 1.0 / s2
@@ -665,7 +665,7 @@ def _whitening_scale_only(prob: _Problem) -> np.ndarray:
 def _refine_general(prob, u, p, k, c, wh):
     f_scale = _resolve_f_scale(prob, u, p, k, c, wh)
     u, p, k, c = _solve_general(prob, wh, u, p, k, c, f_scale)
-    if prob.sx is not None:
+    if prob.noise is not None:
         wh = _whitening_general(prob, u, p)
     return u, p, k, c, wh
 
@@ -673,52 +673,24 @@ def _refine_general(prob, u, p, k, c, wh):
 def _resolve_f_scale(prob, u, p, k, c, wh) -> float:
     if prob.f_scale is not None:
         return prob.f_scale
-    if prob.sx is not None or prob.loss == "linear":
+    if prob.noise is not None or prob.loss == "linear":
         return 2.0
     r, _, _, _ = _linearise(prob, wh, u, p, k, c, jacobian=False)
-    mad = float(np.median(np.abs(r)))
-    return max(2.0 * 1.4826 * mad, 1e-9)
+    return mad_f_scale(r)
 
 
 def _reorient(prob, u, p, k, c) -> bool:
-    """Flip the edges whose flipped version fits better; True if any was flipped."""
-    e = prob.e
-    r1 = np.einsum("ij,ij->i", prob.x - p, _cross(e, u[None, :]))
-    r2 = e @ u
-    keep = (r1 - k) ** 2 + (prob.length * (r2 - c)) ** 2
-    flip = (r1 + k) ** 2 + (prob.length * (r2 + c)) ** 2
-    bad = flip < keep * 0.25
+    """Flip the edges that fit far better flipped (``sign_flips``); True if any was."""
+    bad = sign_flips(*_sign_norms(prob, u, p, k, c), 2)
     if bad.any():
-        prob.e = np.where(bad[:, None], -e, e)
+        prob.e = np.where(bad[:, None], -prob.e, prob.e)
         return True
     return False
 
 
-def _robust_weights(r: np.ndarray, loss: str, f_scale: float, curvature: bool = False):
-    """IRLS weights rho'(s), s = (r / f_scale)^2, of scipy's losses.
-
-    With ``curvature`` also the weights of the Newton matrix, the second derivative of
-    ``0.5 rho(s)`` in r: ``rho' + 2 s rho''``, clipped to at least ``0.05 rho'`` (Cauchy's
-    is negative far out).
-    """
-    s = (r / f_scale) ** 2
-    if loss == "soft_l1":
-        w = 1.0 / np.sqrt(1.0 + s)
-        return (w, w * w * w) if curvature else w
-    if loss == "huber":
-        out = s > 1.0
-        w = np.where(out, 1.0 / np.sqrt(np.maximum(s, 1.0)), 1.0)
-        return (w, np.where(out, 0.05 * w, 1.0)) if curvature else w
-    if loss == "cauchy":
-        w = 1.0 / (1.0 + s)
-        return (w, np.maximum((1.0 - s) * w * w, 0.05 * w)) if curvature else w
-    w = np.ones_like(r)
-    return (w, w) if curvature else w
-
-
 def _covariance_local(prob, r, jm, n_params, f_scale):
     """(cov, cond) of the local parameters from the residuals and Jacobian at the solution."""
-    rho = _robust_weights(r, prob.loss, f_scale)
+    rho = robust_weights(r, prob.loss, f_scale)
     jw = jm * np.sqrt(rho)[:, None]
     col = np.linalg.norm(jw, axis=0)
     if not (col > 0).all():
@@ -729,7 +701,7 @@ def _covariance_local(prob, r, jm, n_params, f_scale):
         return None, math.inf
     info = jw.T @ jw
     cov = np.linalg.inv(info)
-    if prob.sx is None:
+    if prob.noise is None:
         dof = r.size - n_params
         if dof <= 0:
             return "nodof", cond
@@ -800,20 +772,29 @@ def _assemble(prob, u, q, d, cov_local, g, cond, rms, method) -> AxisEstimate:
 # --------------------------------------------------------------------------- parallel case
 
 
-def _whitening_parallel(prob: _Problem) -> np.ndarray:
-    """(N, 2) scale factors of (radial, misalignment) residuals."""
-    out = np.empty((prob.n, 2))
-    if prob.sx is None:
+def _whitening_parallel(prob: _Problem, b1: np.ndarray, b2: np.ndarray) -> np.ndarray:
+    """(N, 4): the scale of the radial residual, then the entries (w00, w10, w11) of the
+    lower-triangular inverse Cholesky factor of the misalignment pair
+    ``((e x u) . b1, (e x u) . b2)``, whose gradients in e are ``(b2, -b1)``."""
+    out = np.zeros((prob.n, 4))
+    if prob.noise is None:
         out[:, 0] = 1.0
-        out[:, 1] = prob.length
+        out[:, 1] = out[:, 3] = prob.length
     else:
-        out[:, 0] = 1.0 / np.sqrt(prob.sx**2 + _VAR_FLOOR)
-        out[:, 1] = 1.0 / np.sqrt(prob.se**2 + _VAR_FLOOR)
+        cov = prob.noise.cov
+        c1 = cov @ b1
+        out[:, 0] = 1.0 / np.sqrt(prob.noise.sx**2 + _VAR_FLOOR)
+        out[:, 1:] = _inverse_cholesky(
+            (cov @ b2) @ b2 + _VAR_FLOOR, -(c1 @ b2), c1 @ b1 + _VAR_FLOOR
+        )
     return out * prob.sqrt_w[:, None]
 
 
-def _residuals_parallel(prob, wh, u0, b1, b2):
+def _residuals_parallel(prob, u0, b1, b2):
+    """Whitened residual function and Jacobian of the parallel case in the local parameters
+    ``(alpha, beta, s1, s2, d)`` about ``u0`` with basis ``(b1, b2)``."""
     x, e, n = prob.x, prob.e, prob.n
+    wh = _whitening_parallel(prob, b1, b2)
 
     def unpack(t):
         v = u0 + t[0] * b1 + t[1] * b2
@@ -827,9 +808,10 @@ def _residuals_parallel(prob, wh, u0, b1, b2):
         rho = np.sqrt(np.einsum("ij,ij->i", wp, wp))
         exu = _cross(e, u[None, :])
         out = np.empty(3 * n)
+        m1 = exu @ b1
         out[:n] = wh[:, 0] * (rho - t[4])
-        out[n : 2 * n] = wh[:, 1] * (exu @ b1)
-        out[2 * n :] = wh[:, 1] * (exu @ b2)
+        out[n : 2 * n] = wh[:, 1] * m1
+        out[2 * n :] = wh[:, 2] * m1 + wh[:, 3] * (exu @ b2)
         return out
 
     def jac(t):
@@ -846,10 +828,11 @@ def _residuals_parallel(prob, wh, u0, b1, b2):
         out[:n, 3] = -(unit @ b2)
         out[:n, 4] = -1.0
         # d/du of (e x u) . b = u . (b x e)
-        out[n : 2 * n, 0:2] = _cross(np.broadcast_to(b1, e.shape), e) @ ju
-        out[2 * n :, 0:2] = _cross(np.broadcast_to(b2, e.shape), e) @ ju
+        j1 = _cross(np.broadcast_to(b1, e.shape), e) @ ju
+        j2 = _cross(np.broadcast_to(b2, e.shape), e) @ ju
         out[:n] *= wh[:, 0:1]
-        out[n:] *= np.concatenate([wh[:, 1:2], wh[:, 1:2]])
+        out[n : 2 * n, 0:2] = wh[:, 1:2] * j1
+        out[2 * n :, 0:2] = wh[:, 2:3] * j1 + wh[:, 3:4] * j2
         return out
 
     return fun, jac
@@ -875,14 +858,13 @@ def _fit_parallel(prob: _Problem, mean_dir: np.ndarray) -> AxisEstimate:
     sol = np.linalg.lstsq(a, rhs, rcond=None)[0]
     d = math.sqrt(max(sol[2] + sol[0] ** 2 + sol[1] ** 2, 0.0))
     t0 = np.array([0.0, 0.0, sol[0], sol[1], d])
-    wh = _whitening_parallel(prob)
-    fun, jac = _residuals_parallel(prob, wh, u, b1, b2)
+    fun, jac = _residuals_parallel(prob, u, b1, b2)
     if prob.f_scale is not None:
         f_scale = prob.f_scale
-    elif prob.sx is not None:
+    elif prob.noise is not None:
         f_scale = 2.0
     else:
-        f_scale = max(2.0 * 1.4826 * float(np.median(np.abs(fun(t0)))), 1e-9)
+        f_scale = mad_f_scale(fun(t0))
     if prob.loss == "linear" and 3 * prob.n >= 5:
         res = least_squares(fun, t0, jac=jac, method="lm", x_scale="jac", xtol=1e-10, ftol=1e-10)
     else:
@@ -904,7 +886,7 @@ def _fit_parallel(prob: _Problem, mean_dir: np.ndarray) -> AxisEstimate:
     p = p - (p @ u) * u
     d = abs(float(t[4]))
     b1, b2 = _basis(u)
-    fun, jac = _residuals_parallel(prob, wh, u, b1, b2)
+    fun, jac = _residuals_parallel(prob, u, b1, b2)
     t = np.array([0.0, 0.0, p @ b1, p @ b2, d])
     cov_local, cond = _covariance_local(prob, fun(t), jac(t), 5, f_scale)
     if cov_local is None:

@@ -24,15 +24,28 @@ import numpy as np
 from tactile_gym.estimation.axis import (
     DEGENERATE_CONDITION,
     AxisEstimate,
+    as_noise,
     as_points,
-    as_stds,
     as_unit_edges,
     as_weights,
     degenerate_estimate,
 )
+from tactile_gym.estimation.robust import (
+    CHI2_99,
+    check_loss,
+    consensus,
+    mad_f_scale,
+    robust_weights,
+    sign_flips,
+)
 from tactile_gym.spatial import orient_edges
 
-__all__ = ["fit_axis_planar", "fit_axis_simple", "planar_residual_variance"]
+__all__ = [
+    "edge_rotation_variance",
+    "fit_axis_planar",
+    "fit_axis_simple",
+    "planar_residual_variance",
+]
 
 # Floor on a residual variance so that exact data with zero stds keep finite weights, m^2.
 _VARIANCE_FLOOR = 1e-18
@@ -48,29 +61,63 @@ def planar_residual_variance(
     edges: np.ndarray,
     axis_xy: np.ndarray,
     point_std: np.ndarray | float,
-    edge_std: np.ndarray | float,
+    edge_var: np.ndarray | float,
 ) -> np.ndarray:
     """Predicted variance of the eq. 16 residual of each measurement, m^2.
 
-    ``sigma_r^2 = point_std^2 + (lever * edge_std)^2``: the point error across the edge moves
-    the residual one for one; an edge rotation by ``delta`` moves it by ``lever * delta``,
-    where ``lever = e_i . (x_i - axis)`` is the distance along the edge from the contact point
-    to the foot of the perpendicular from the axis.
+    ``sigma_r^2 = point_std^2 + lever^2 edge_var``: the point error across the edge moves
+    the residual one for one; an edge rotation by ``delta`` about z moves it by
+    ``lever * delta``, where ``lever = e_i . (x_i - axis)`` is the distance along the edge
+    from the contact point to the foot of the perpendicular from the axis.
 
     Args:
         points: (N, 2) contact points, world x-y, m.
-        edges: (N, 2) unit edge directions.
+        edges: (N, 2) unit x-y edge directions.
         axis_xy: (2,) current axis position estimate, m.
         point_std: contact-point std per axis, m; scalar or (N,).
-        edge_std: edge-direction std, rad; scalar or (N,).
+        edge_var: variance of the edge's rotation about world z, rad^2; scalar or (N,)
+            (see :func:`edge_rotation_variance`).
     """
     lever = np.einsum("ij,ij->i", edges, points - axis_xy)
-    return np.square(point_std) + np.square(lever * edge_std) + _VARIANCE_FLOOR
+    return np.square(point_std) + np.square(lever) * edge_var + _VARIANCE_FLOOR
 
 
-def _planar_xy(points: object, name: str) -> np.ndarray:
-    a = as_points(points, name)
-    return a[:, :2]
+def edge_rotation_variance(
+    edges: np.ndarray, edge_std: np.ndarray | float, edge_cov: np.ndarray | None = None
+) -> np.ndarray:
+    """(N,) variance of the rotation about world z of each edge's x-y direction, rad^2.
+
+    A perturbation ``de`` of the unit edge e turns its x-y direction by ``h . de``, with
+    ``h = (-e_y, e_x, 0) / rho^2`` and ``rho = |(e_x, e_y)|``: the variance is
+    ``h^T edge_cov h``. Without ``edge_cov`` the noise is isotropic about the edge: for 3D
+    edges ``edge_cov = (edge_std^2 / 2) (I - e e^T)``, so ``edge_std^2 / (2 rho^2)``; a 2D
+    edge has one normal direction only, in the plane, so ``edge_std^2``.
+
+    Args:
+        edges: (N, 2) or (N, 3) edge directions, world frame, with an x-y part.
+        edge_std: total RMS angle error of each edge, rad; scalar or (N,). Used without
+            ``edge_cov``.
+        edge_cov: optional (N, 3, 3) validated edge covariances, world frame, rad^2.
+    """
+    e = edges / np.linalg.norm(edges, axis=1)[:, None]
+    # Edges with less x-y part than this are dropped by the fit; keep them finite.
+    rho2 = np.maximum(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1], _NO_XY * _NO_XY)
+    if edge_cov is None:
+        std = np.asarray(edge_std, dtype=float)
+        return np.ones(e.shape[0]) * _isotropic_rotation_variance(std, rho2, e.shape[1])
+    hx = -e[:, 1] / rho2
+    hy = e[:, 0] / rho2
+    c = edge_cov
+    return hx * hx * c[:, 0, 0] + 2.0 * hx * hy * c[:, 0, 1] + hy * hy * c[:, 1, 1]
+
+
+def _isotropic_rotation_variance(edge_std, rho2, dims: int):
+    """:func:`edge_rotation_variance` of isotropic noise, for scalars or arrays: a 2D edge
+    (``dims`` 2) turns about z by all of ``edge_std``, a 3D edge whose x-y part has the
+    squared length ``rho2`` (unit edge) by ``edge_std^2 / (2 rho2)``."""
+    if dims == 2:
+        return edge_std * edge_std
+    return edge_std * edge_std / (2.0 * rho2)
 
 
 def fit_axis_planar(
@@ -80,6 +127,9 @@ def fit_axis_planar(
     *,
     point_std: np.ndarray | float | None = None,
     edge_std: np.ndarray | float | None = None,
+    edge_cov: np.ndarray | None = None,
+    loss: str = "linear",
+    f_scale: float | None = None,
     resolve_signs: bool = True,
 ) -> AxisEstimate:
     """Fit a joint axis parallel to world z from contact points and edge directions.
@@ -87,11 +137,13 @@ def fit_axis_planar(
     Paper eq. 16-21: each measurement gives one row of
     ``(e_yi, -e_xi, -1) (p, q, d)^T = e_yi x_i - e_xi y_i``, the signed distance from the axis
     (p, q) to the edge line minus the common distance d; the rows are solved in the
-    (weighted) least-squares sense by SVD.
+    (weighted) least-squares sense through the 3x3 normal equations.
 
     Covariance of (p, q, d): ``sigma^2 (A^T W A)^-1``. With ``weights`` (or stds) the weights
     are taken as absolute inverse variances, so ``sigma^2 = 1``; without, all rows weigh the
-    same and ``sigma^2 = RSS / (N - 3)`` (no covariance when N = 3).
+    same and ``sigma^2 = RSS / (N - 3)`` (no covariance when N = 3). With a robust loss W
+    also holds the loss weights ``rho'`` at the solution and, without weights or stds,
+    ``sigma^2 = sum(rho' r^2) / (N - 3)``, as in the 3D fit.
 
     Args:
         points: (N, 2) or (N, 3) contact points, world frame, m (z ignored).
@@ -99,9 +151,28 @@ def fit_axis_planar(
             Edges with no x-y component carry no information and are dropped.
         weights: optional (N,) inverse variances of the eq. 16 residuals, 1/m^2.
         point_std: alternative to ``weights``: contact-point std per axis, m (scalar or
-            (N,)). Needs ``edge_std`` too. The residual variances are then predicted by
-            :func:`planar_residual_variance` from an unweighted fit and refined twice.
-        edge_std: edge-direction std, rad (scalar or (N,)); with ``point_std``.
+            (N,)). Needs ``edge_std`` or ``edge_cov`` too. The residual variances are then
+            predicted by :func:`planar_residual_variance` from an unweighted fit and
+            refined twice.
+        edge_std: total RMS angle error of each edge, rad (scalar or (N,)), isotropic about
+            the edge: for 3D edges half its variance turns the edge about z (more when the
+            edge is tilted out of the plane), for 2D edges all of it (see
+            :func:`edge_rotation_variance`).
+        edge_cov: alternative to ``edge_std``: (N, 3, 3) covariance of the perturbation of
+            each unit edge, world frame, rad^2, as for
+            :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`; only its rotation about z
+            matters here.
+        loss: ``"linear"`` (least squares) or a robust loss, one of ``LOSSES``, on the
+            whitened residuals (with weights or stds) or on the residuals in metres. With
+            N >= 6 usable measurements a RANSAC-style consensus over exact 3-measurement
+            fits (least median of squares without weights or stds) first sets the wild
+            ones aside. After the robust fit, edges that fit far better flipped are
+            flipped, and the measurements whose prediction residual lies within the 99 %
+            quantile are let back in (then it refits). ``n_used`` counts the measurements
+            kept.
+        f_scale: residual level where the robust loss starts to bend, in standard
+            deviations with weights or stds (default 2), else in metres (default: 2 x a
+            MAD-based noise estimate at the starting fit).
         resolve_signs: orient the edges consistently (see the module docstring).
             Pass False when the edges are already oriented.
 
@@ -112,50 +183,42 @@ def fit_axis_planar(
 
     Raises:
         ValueError: on malformed input (shapes, non-finite values, negative weights or stds,
-            zero edges, weights given together with stds).
+            zero edges, weights given together with stds, unknown loss, f_scale <= 0).
     """
-    x = np.asarray(points, dtype=float)
-    e3 = np.asarray(edges, dtype=float)
-    if x.ndim != 2 or x.shape[1] not in (2, 3):
-        raise ValueError(f"points must have shape (N, 2) or (N, 3), got {x.shape}")
+    check_loss(loss, f_scale)
+    x = as_points(points, "points")
     n = x.shape[0]
-    if e3.ndim != 2 or e3.shape[1] not in (2, 3) or e3.shape[0] != n:
-        raise ValueError(f"edges must have shape ({n}, 2) or ({n}, 3), got {e3.shape}")
-    if (point_std is None) != (edge_std is None):
-        raise ValueError("point_std and edge_std must be given together")
-    if weights is not None and point_std is not None:
-        raise ValueError("give either weights or point_std/edge_std, not both")
+    e3 = as_unit_edges(edges, n)
+    sx, se, cov = as_noise(point_std, edge_std, edge_cov, e3)
+    if weights is not None and sx is not None:
+        raise ValueError("give either weights or point_std with edge_std or edge_cov, not both")
     w = None if weights is None else as_weights(weights, n)
-    if resolve_signs and np.isfinite(e3).all():
+    if resolve_signs:
         # Signs from the x-y parts (those the fit uses), applied to the whole edges.
         xy = np.column_stack([e3[:, :2], np.zeros(n)])
         e3 = np.where((np.einsum("ij,ij->i", orient_edges(xy), xy) < 0)[:, None], -e3, e3)
-    if point_std is None:
-        est = _planar_fit(x, e3, w)
-        if est is None:
-            _raise_bad_planar_input(x, e3)
-        return est
-    sx = as_stds(point_std, n, "point_std", "m")
-    se = as_stds(edge_std, n, "edge_std", "rad")
-    est = _planar_fit(x, e3, None)
-    if est is None:
-        _raise_bad_planar_input(x, e3)
+    var_z = None if sx is None else edge_rotation_variance(e3, se, cov)
+    if loss != "linear":
+        return _robust_planar(_Rows(x, e3, w, sx, var_z), loss, f_scale)[0]
+    if sx is None:
+        return _checked(_planar_fit(x, e3, w))
+    est = _checked(_planar_fit(x, e3, None))
     # Predict the residual variances from the current axis and refit; twice is enough for
     # the levers to settle (they change by the axis error, a few mm).
     e2 = _unit_xy_edges(e3)
     for _ in range(2):
         if est.degenerate:
             return est
-        var = planar_residual_variance(x[:, :2], e2, est.point[:2], sx, se)
-        est = _planar_fit(x, e3, 1.0 / var)
+        var = planar_residual_variance(x[:, :2], e2, est.point[:2], sx, var_z)
+        est = _checked(_planar_fit(x, e3, 1.0 / var))
     return est
 
 
-def _raise_bad_planar_input(x: np.ndarray, e3: np.ndarray) -> None:
-    """Find and report what made the planar fit fail its finiteness checks."""
-    as_points(x, "points")
-    as_unit_edges(e3, x.shape[0])
-    raise ValueError("points and edges must be finite")  # pragma: no cover
+def _checked(est: AxisEstimate | None) -> AxisEstimate:
+    """The estimate of validated input; None there means that the normal equations overflowed."""
+    if est is None:
+        raise ValueError("points, edges or weights are too large: the normal equations overflow")
+    return est
 
 
 def _unit_xy_edges(e3: np.ndarray) -> np.ndarray:
@@ -177,7 +240,8 @@ _PLANAR_NUMPY_MIN_N = 12
 
 
 def _planar_fit(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> AxisEstimate | None:
-    """Eq. 18-21 on shape-checked arrays; None when an input is non-finite or an edge zero.
+    """Eq. 18-21 on shape-checked arrays; None when an input is non-finite, an edge zero or
+    the arithmetic overflows.
 
     w holds inverse variances (rows with w = 0 are dropped). The normal equations
     ``A^T W A (p, q, d) = A^T W b`` are accumulated and solved in closed form. This is the
@@ -231,7 +295,7 @@ def _planar_fit(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> AxisEsti
     def rss(p: float, q: float, d: float) -> float:
         total = 0.0
         for ex, ey, b in rows:
-            r = b - ey * p + ex * q - d
+            r = b - ey * p + ex * q + d
             total += r * r
         return total
 
@@ -282,19 +346,18 @@ def _planar_fit_numpy(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> Ax
     )
 
 
-def _planar_solve(
-    normal: tuple[float, ...],
-    rhs: tuple[float, float, float],
-    n: int,
-    w: np.ndarray | None,
-    rss_at: object,
-) -> AxisEstimate:
-    """Solve the 3x3 normal equations by cofactors and assemble the estimate.
+def _sym3_solve(normal: tuple[float, ...], rhs: tuple[float, ...]):
+    """Solve a symmetric positive definite 3x3 system by cofactors (plain Python: for one
+    small system numpy's per-call overhead dominates).
 
-    ``rss_at(p, q, d)`` returns the unweighted residual sum of squares.
+    Args:
+        normal: the upper triangle ``(a00, a01, a02, a11, a12, a22)``.
+        rhs: ``(r0, r1, r2)``.
+
+    Returns:
+        ``(solution, cofactors, det)`` with the cofactors in the order of ``normal``, or
+        None when the determinant is not positive.
     """
-    if n < 3:
-        return degenerate_estimate("planar", n, planar=True)
     a00, a01, a02, a11, a12, a22 = normal
     r0, r1, r2 = rhs
     c00 = a11 * a22 - a12 * a12
@@ -302,10 +365,38 @@ def _planar_solve(
     c02 = a01 * a12 - a02 * a11
     det = a00 * c00 + a01 * c01 + a02 * c02
     if not det > 0.0:
-        return degenerate_estimate("planar", n, planar=True)
+        return None
     c11 = a00 * a22 - a02 * a02
     c12 = a01 * a02 - a00 * a12
     c22 = a00 * a11 - a01 * a01
+    inv_det = 1.0 / det
+    solution = (
+        (c00 * r0 + c01 * r1 + c02 * r2) * inv_det,
+        (c01 * r0 + c11 * r1 + c12 * r2) * inv_det,
+        (c02 * r0 + c12 * r1 + c22 * r2) * inv_det,
+    )
+    return solution, (c00, c01, c02, c11, c12, c22), det
+
+
+def _planar_solve(
+    normal: tuple[float, ...],
+    rhs: tuple[float, float, float],
+    n: int,
+    w: np.ndarray | None,
+    rss_at: object,
+) -> AxisEstimate | None:
+    """Solve the 3x3 normal equations by cofactors and assemble the estimate.
+
+    ``rss_at(p, q, d)`` returns the unweighted residual sum of squares. None when the
+    solution or its covariance overflows (inputs of order 1e150 m and beyond).
+    """
+    if n < 3:
+        return degenerate_estimate("planar", n, planar=True)
+    solved = _sym3_solve(normal, rhs)
+    if solved is None:
+        return degenerate_estimate("planar", n, planar=True)
+    (p, q, d), (c00, c01, c02, c11, c12, c22), det = solved
+    a00, a01, a02, a11, a12, a22 = normal
     norm2 = a00 * a00 + a11 * a11 + a22 * a22 + 2.0 * (a01 * a01 + a02 * a02 + a12 * a12)
     inv_norm2 = (c00 * c00 + c11 * c11 + c22 * c22 + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)) / (
         det * det
@@ -315,10 +406,10 @@ def _planar_solve(
     if not cond < _PLANAR_DEGENERATE_CONDITION:
         return degenerate_estimate("planar", n, planar=True)
     inv_det = 1.0 / det
-    p = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det
-    q = (c01 * r0 + c11 * r1 + c12 * r2) * inv_det
-    d = (c02 * r0 + c12 * r1 + c22 * r2) * inv_det
     rss = rss_at(p, q, d)
+    size = abs(c00) + abs(c01) + abs(c02) + abs(c11) + abs(c12) + abs(c22)
+    if not math.isfinite(p + q + d + rss + size * inv_det):
+        return None
     if w is not None:
         scale = 1.0
     elif n > 3:
@@ -355,6 +446,249 @@ def _planar_solve(
     )
 
 
+# ------------------------------------------------------------------------- robust fit
+
+# From this many usable measurements on, a consensus over exact 3-measurement fits
+# precedes the robust fit: an L1-like loss alone does not reject a wild edge far from the
+# axis (its residual is its lever times its angle error, and it pulls on the axis).
+_CONSENSUS_MIN_N = 6
+
+# The robust fit stops when (p, q, d) move by less than this, m: far below the estimate's
+# own std (mm), and reweighting converges only linearly.
+_ROBUST_TOL = 1e-7
+_ROBUST_MAX_ITER = 50
+# Rounds of (robust fit, sign and inlier update).
+_ROBUST_ROUNDS = 3
+
+
+class _Rows:
+    """The eq. 16 rows of the measurements that have an x-y edge (and weight > 0).
+
+    Row i: ``r_i = s_i + d`` with ``s_i = sign_i (b_i - e_yi p + e_xi q)``, the signed distance
+    from the axis to the edge line (sign +-1: the edge as given or flipped). The predicted
+    variance of ``r_i`` is fixed (``1 / w``, or 1 m^2 without weights or stds) or, with
+    stds, ``point_std^2 + lever^2 var_z`` at the current axis.
+
+    Attributes:
+        x, e3: the measurements as given (for the final fit); ``idx``: (M,) the rows' indices.
+        ex, ey: (M,) unit x-y edges; ``b``: (M,) ``e_y x - e_x y``; ``t``: (M,) ``e . x``
+            (the lever is ``t - e . axis``); ``sign``: (M,) +-1.
+        noise: whether the variances are absolute (weights or stds given).
+    """
+
+    def __init__(self, x, e3, w, sx, var_z):
+        nxy = np.hypot(e3[:, 0], e3[:, 1])
+        use = nxy > _NO_XY * np.sqrt(np.einsum("ij,ij->i", e3, e3))
+        if w is not None:
+            use &= w > 0
+        self.x, self.e3 = x, e3
+        self.idx = idx = np.flatnonzero(use)
+        self.ex = e3[idx, 0] / nxy[idx]
+        self.ey = e3[idx, 1] / nxy[idx]
+        px, py = x[idx, 0], x[idx, 1]
+        self.b = self.ey * px - self.ex * py
+        self.t = self.ex * px + self.ey * py
+        self.sign = np.ones(idx.size)
+        self.noise = w is not None or sx is not None
+        if sx is None:
+            self.var_z = None
+            self.fixed_var = np.ones(idx.size) if w is None else 1.0 / w[idx]
+        else:
+            self.var_z = var_z[idx]
+            self.sx2 = np.square(sx[idx])
+
+    @property
+    def m(self) -> int:
+        return self.idx.size
+
+    def design(self, sel) -> tuple[np.ndarray, np.ndarray]:
+        """(A, b) of the selected rows, with their signs: ``r = b - A (p, q, d)``."""
+        sg = self.sign[sel]
+        a = np.empty((sg.size, 3))
+        a[:, 0] = sg * self.ey[sel]
+        a[:, 1] = -sg * self.ex[sel]
+        a[:, 2] = -1.0
+        return a, sg * self.b[sel]
+
+    def variance_model(self, sel=slice(None)):
+        """The predicted variances of the selected rows' residuals, m^2, as a function of
+        the axis ``theta = (p, q, d)``."""
+        if self.var_z is None:
+            fixed = self.fixed_var[sel]
+            return lambda theta: fixed
+        t, ex, ey = self.t[sel], self.ex[sel], self.ey[sel]
+        sx2, var_z = self.sx2[sel], self.var_z[sel]
+
+        def variances(theta):
+            lever = t - ex * theta[0] - ey * theta[1]
+            return sx2 + lever * lever * var_z + _VARIANCE_FLOOR
+
+        return variances
+
+    def sq_norms(self, theta, fit=None) -> tuple[np.ndarray, np.ndarray]:
+        """(M,) squared whitened residuals with each edge as signed, and flipped.
+
+        ``fit``: optional ``(cov, sigma2)`` of a fit at ``theta``: the covariance of
+        (p, q, d) and, without a noise model, the noise variance. The residuals are then
+        whitened by their prediction variance, which adds the fit's own uncertainty at each
+        row: a row that the fit, made without it, barely constrains (a large lever, an odd
+        direction) is not taken for an outlier. Without either a noise model or ``fit``
+        they are the squared residuals, m^2.
+        """
+        p, q, d = theta
+        dist = self.sign * (self.b - self.ey * p + self.ex * q)
+        keep = (dist + d) ** 2
+        flipped = (d - dist) ** 2
+        var = self.variance_model()(theta)
+        if fit is None:
+            return keep / var, flipped / var
+        cov, sigma2 = fit
+        if sigma2 is not None:
+            var = sigma2
+        u = self.sign * self.ey
+        v = -self.sign * self.ex
+        even = u * u * cov[0, 0] + v * v * cov[1, 1] + 2.0 * u * v * cov[0, 1] + cov[2, 2]
+        odd = 2.0 * (u * cov[0, 2] + v * cov[1, 2])
+        return keep / (var + even - odd), flipped / (var + even + odd)
+
+    def exact(self, tri: np.ndarray) -> np.ndarray | None:
+        """(p, q, d) through three rows, or None when their edges are (nearly) parallel."""
+        a, b = self.design(tri)
+        if not abs(np.linalg.det(a)) > 1e-6:
+            return None
+        return np.linalg.solve(a, b)
+
+
+def _robust_planar(rows: _Rows, loss: str, f_scale: float | None, start=None):
+    """:func:`fit_axis_planar` with a robust loss, on validated rows with oriented edges.
+
+    Args:
+        rows: the rows.
+        loss, f_scale: as for :func:`fit_axis_planar`.
+        start: optional ``(theta, sel, sign)`` of an earlier fit of the first rows (the
+            online estimator's): it replaces the consensus, the rows after them join
+            as candidates.
+
+    Returns:
+        ``(estimate, (theta, sel, sign))``: the estimate and the solution for a later
+        ``start`` (None when the estimate is degenerate).
+    """
+    m = rows.m
+    if m < 3:
+        return degenerate_estimate("planar", m, planar=True), None
+    sel = np.ones(m, dtype=bool)
+    found = None
+    if start is not None:
+        theta, old_sel, old_sign = start
+        sel[: old_sel.size] = old_sel
+        rows.sign[: old_sign.size] = old_sign
+        found = sel, theta, 1.0
+    elif m >= _CONSENSUS_MIN_N:
+        found = consensus(
+            m, rows.exact, lambda th: np.minimum(*rows.sq_norms(th)), 1, whitened=rows.noise
+        )
+    if found is None:
+        a, b = rows.design(sel)
+        theta = _weighted_solve(a, b, np.ones(m))
+    else:
+        # Signs are decided at the robust fit below: an exact 3-measurement fit is too rough
+        # to judge them, and a valid edge flipped costs this badly conditioned fit dearly.
+        sel, theta, _ = found
+    if theta is None:
+        return degenerate_estimate("planar", m, planar=True), None
+    if f_scale is None:
+        a, b = rows.design(sel)
+        f_scale = 2.0 if rows.noise else mad_f_scale(b - a @ theta)
+    for _ in range(_ROBUST_ROUNDS):
+        theta = _irls(rows, sel, theta, loss, f_scale)
+        if theta is None:
+            return degenerate_estimate("planar", m, planar=True), None
+        weights, sigma2 = _solution_weights(rows, sel, theta, loss, f_scale)
+        a, _ = rows.design(sel)
+        try:
+            cov = np.linalg.inv((a * weights[sel, None]).T @ a)
+        except np.linalg.LinAlgError:
+            return degenerate_estimate("planar", m, planar=True), None
+        # Edges that fit far better flipped, and (after a consensus) the measurements the
+        # fit explains, then once more.
+        keep, flipped = rows.sq_norms(theta, (cov, sigma2))
+        flip = sign_flips(keep, flipped, 1)
+        again = sel
+        if found is not None:
+            again = np.where(flip, flipped, keep) < CHI2_99[1]
+            if again.sum() < 4:
+                again = sel
+        if not flip.any() and (again == sel).all():
+            break
+        rows.sign = np.where(flip, -rows.sign, rows.sign)
+        sel = again
+    est = _robust_estimate(rows, sel, theta, loss, f_scale)
+    return est, None if est.degenerate else (theta, sel, rows.sign)
+
+
+def _weighted_solve(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray | None:
+    """Weighted least squares ``argmin sum w (b - a theta)^2``; None if rank deficient."""
+    return _augmented_solve(np.column_stack([a, b]), w)
+
+
+def _augmented_solve(m: np.ndarray, w: np.ndarray) -> np.ndarray | None:
+    """:func:`_weighted_solve` of the augmented rows ``m = [a | b]`` (M, 4)."""
+    g = ((m * w[:, None]).T @ m).tolist()
+    solved = _sym3_solve((g[0][0], g[0][1], g[0][2], g[1][1], g[1][2], g[2][2]), g[3][:3])
+    return None if solved is None else np.array(solved[0])
+
+
+def _irls(rows: _Rows, sel, theta, loss: str, f_scale: float) -> np.ndarray | None:
+    """Iteratively reweighted least squares of the robust loss over the selected rows,
+    with the residual variances re-predicted at each step's axis."""
+    a, b = rows.design(sel)
+    m = np.column_stack([a, b])
+    variances = rows.variance_model(sel)
+    for _ in range(_ROBUST_MAX_ITER):
+        var = variances(theta)
+        r = b - a @ theta
+        new = _augmented_solve(m, robust_weights(r / np.sqrt(var), loss, f_scale) / var)
+        if new is None:
+            return None
+        step = (new - theta).tolist()
+        theta = new
+        if max(abs(step[0]), abs(step[1]), abs(step[2])) <= _ROBUST_TOL:
+            break
+    return theta
+
+
+def _solution_weights(rows: _Rows, sel, theta, loss: str, f_scale: float):
+    """(M,) absolute inverse variances of the rows at the robust solution, the loss weights
+    included (0 outside ``sel``), and the noise variance estimated from the residuals
+    without a noise model (``sum(rho' r^2) / (n - 3)``, m^2; None with one, or with no
+    residual degrees of freedom)."""
+    a, b = rows.design(sel)
+    r = b - a @ theta
+    var = rows.variance_model(sel)(theta)
+    w = robust_weights(r / np.sqrt(var), loss, f_scale) / var
+    sigma2 = None
+    n_sel = int(sel.sum())
+    if not rows.noise and n_sel > 3:
+        sigma2 = float(w @ (r * r)) / (n_sel - 3)
+        w = w / sigma2
+    out = np.zeros(rows.m)
+    out[sel] = w
+    return out, sigma2
+
+
+def _robust_estimate(rows: _Rows, sel, theta, loss: str, f_scale: float) -> AxisEstimate:
+    """The estimate at the robust solution: the weighted fit with the solution's weights
+    (its covariance is then that of the robust fit)."""
+    e3 = rows.e3.copy()
+    e3[rows.idx] *= rows.sign[:, None]
+    if not rows.noise and sel.sum() <= 3:
+        kept = rows.idx[sel]
+        return _checked(_planar_fit(rows.x[kept], e3[kept], None))
+    weights = np.zeros(rows.x.shape[0])
+    weights[rows.idx] = _solution_weights(rows, sel, theta, loss, f_scale)[0]
+    return _checked(_planar_fit(rows.x, e3, weights))
+
+
 def fit_axis_simple(points: np.ndarray) -> AxisEstimate:
     """The paper's "simple method" baseline (eq. 22-26): intersect perpendicular bisectors.
 
@@ -376,7 +710,7 @@ def fit_axis_simple(points: np.ndarray) -> AxisEstimate:
     Raises:
         ValueError: on malformed input.
     """
-    x = _planar_xy(points, "points")
+    x = as_points(points, "points")[:, :2]
     n = x.shape[0]
     if n < 3:
         return degenerate_estimate("simple", n, planar=True)

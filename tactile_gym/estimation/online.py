@@ -3,13 +3,16 @@
 Conventions: world frame, metres, radians. Points are contact points on the link's edge,
 edges its direction there (any sign; each new edge is oriented like the best-aligned of
 the previous few, see :func:`tactile_gym.spatial.orient_edges`), ``point_std`` the
-contact-point std per axis (m) and ``edge_std`` the edge-direction std (rad).
+contact-point std per axis (m), ``edge_std`` the edge's total RMS angle error (rad) and
+``edge_cov`` optionally its full covariance (rad^2), as for
+:func:`~tactile_gym.estimation.fit3d.fit_axis_3d`.
 
 Weighting (DESIGN.md 2.5: the fit is badly conditioned over small rotations). Each
-measurement is weighted by the inverse of its predicted residual variance,
-``point_std^2 + (lever * edge_std)^2``, where the lever is the distance along the edge from
-the contact point to the foot of the perpendicular from the axis. The lever needs an axis:
-the previous estimate provides it (two passes when there is none yet).
+measurement is weighted by the inverse of its predicted residual variance; in the planar
+mode ``point_std^2 + lever^2 var_z``, where ``var_z`` is the variance of the edge's rotation
+about z and the lever the distance along the edge from the contact point to the foot of
+the perpendicular from the axis. The lever needs an axis: the previous estimate provides
+it (two passes when there is none yet).
 """
 
 from __future__ import annotations
@@ -18,9 +21,17 @@ import math
 
 import numpy as np
 
-from tactile_gym.estimation.axis import AxisEstimate
-from tactile_gym.estimation.fit3d import LOSSES, _fit_state, _update_state
-from tactile_gym.estimation.fits import _planar_fit, planar_residual_variance
+from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs, isotropic_edge_covs
+from tactile_gym.estimation.fit3d import _fit_state, _Noise, _update_state
+from tactile_gym.estimation.fits import (
+    _isotropic_rotation_variance,
+    _planar_fit,
+    _robust_planar,
+    _Rows,
+    edge_rotation_variance,
+    planar_residual_variance,
+)
+from tactile_gym.estimation.robust import check_loss
 from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
 
 __all__ = ["JointAxisEstimator"]
@@ -31,8 +42,8 @@ MODES = ("planar", "3d")
 # checking identifiability, rad.
 _DISTINCT_TOL = math.radians(0.5)
 
-# The 3d mode redoes the full robust fit (consensus included) once the number of
-# measurements has grown by this factor since the last full fit; in between it refits
+# With a robust loss, both modes redo the full fit (consensus included) once the number of
+# measurements has grown by this factor since the last full fit; in between they refit
 # warm-started from the previous solution.
 _FULL_REFIT_GROWTH = 1.25
 
@@ -51,12 +62,15 @@ class JointAxisEstimator:
     and the fit is not degenerate. Directions are distinct when more than
     ``max(0.5 deg, 3 edge_std)`` apart.
 
-    The planar mode is a weighted linear least-squares fit (no robust loss: ``loss`` only
-    applies to the 3d mode). Results are cached; ``estimate()`` refits only after ``add``.
+    Both modes use ``loss``: with ``"linear"`` the planar mode is a weighted linear
+    least-squares fit, refitted once per update with the residual variances of the previous
+    estimate; with a robust loss it is :func:`~tactile_gym.estimation.fits.fit_axis_planar`'s
+    robust fit (consensus from 6 measurements on). Results are cached; ``estimate()``
+    refits only after ``add``.
 
     Args:
         mode: ``"planar"`` or ``"3d"``.
-        loss: robust loss of the 3d fit, one of ``LOSSES``.
+        loss: loss of the fit, one of ``LOSSES`` (``"linear"``: least squares).
         min_measurements: measurements needed before a first estimate (>= 3).
     """
 
@@ -65,12 +79,12 @@ class JointAxisEstimator:
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        if loss not in LOSSES:
-            raise ValueError(f"loss must be one of {LOSSES}, got {loss!r}")
+        check_loss(loss)
         default_min = 3 if mode == "planar" else 4
         if min_measurements is None:
             min_measurements = default_min
-        if int(min_measurements) != min_measurements or min_measurements < 3:
+        # float() first: inf and NaN must fail here like any non-integer, not in int().
+        if not (float(min_measurements).is_integer() and min_measurements >= 3):
             raise ValueError(f"min_measurements must be an integer >= 3, got {min_measurements!r}")
         self.mode = mode
         self.loss = loss
@@ -86,12 +100,17 @@ class JointAxisEstimator:
         self._edges = np.empty((cap, 3))
         self._point_std = np.empty(cap)
         self._edge_std = np.empty(cap)
+        # The noise the fits use: planar, the variance of the edge's rotation about z
+        # (rad^2); 3d, the edge covariance (rad^2).
+        self._edge_noise = np.empty((cap,) if self.mode == "planar" else (cap, 3, 3))
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
         self._cached: AxisEstimate | None = None
         self._stale = False
         self._last: AxisEstimate | None = None
-        self._state = None  # 3d mode: fit3d._Solution of the last fit, for warm starts
-        self._n_full = 0  # 3d mode: measurements at the last full (consensus) fit
+        # The last robust solution, for warm starts: 3d mode, a fit3d._Solution; planar
+        # mode, the (theta, sel, sign) of fits._robust_planar.
+        self._state = None
+        self._n_full = 0  # measurements at the last full (consensus) fit
 
     @property
     def n_measurements(self) -> int:
@@ -120,22 +139,36 @@ class JointAxisEstimator:
 
     @property
     def edge_stds(self) -> np.ndarray:
-        """(N,) edge-direction stds, rad (read-only)."""
+        """(N,) edge stds (total RMS angle errors) as given, rad (read-only)."""
         return self._view(self._edge_std)
 
-    def add(self, point: np.ndarray, edge: np.ndarray, point_std: float, edge_std: float) -> None:
+    def add(
+        self,
+        point: np.ndarray,
+        edge: np.ndarray,
+        point_std: float,
+        edge_std: float,
+        edge_cov: np.ndarray | None = None,
+    ) -> None:
         """Add one measurement.
 
         Args:
             point: (3,) contact point, world frame, m ((2,) allowed in planar mode).
             edge: (3,) edge direction, world frame, any length > 0 and any sign ((2,)
-                allowed in planar mode). In planar mode its z part is dropped.
+                allowed in planar mode). In planar mode its z part is dropped after
+                ``edge_std`` or ``edge_cov`` has given the variance of its rotation about z.
             point_std: contact-point std per axis, m, >= 0.
-            edge_std: edge-direction std, rad, >= 0.
+            edge_std: total RMS angle error of the edge, rad, >= 0. Without ``edge_cov``
+                the noise is isotropic about the edge (for a (2,) edge: all of it about z).
+            edge_cov: optional (3, 3) covariance of the perturbation of the unit edge,
+                world frame, rad^2 (see :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`).
+                When given it replaces the isotropic model; ``edge_std`` then only sets the
+                tolerance of distinct directions.
 
         Raises:
             ValueError: on a malformed point or edge, a zero edge (planar: no x-y part),
-                or a negative or non-finite std.
+                a negative or non-finite std, or an edge_cov that is not a finite symmetric
+                positive semi-definite (3, 3) matrix.
         """
         x = np.asarray(point, dtype=float)
         e = np.asarray(edge, dtype=float)
@@ -158,14 +191,31 @@ class JointAxisEstimator:
             raise ValueError(f"point_std must be finite and >= 0 m, got {point_std!r}")
         if not (math.isfinite(se) and se >= 0):
             raise ValueError(f"edge_std must be finite and >= 0 rad, got {edge_std!r}")
-        if self.mode == "planar":
-            el = [el[0], el[1], 0.0]
-        elif len(el) == 2:
-            el = [el[0], el[1], 0.0]
-        norm = math.sqrt(el[0] * el[0] + el[1] * el[1] + el[2] * el[2])
+        if len(el) == 2:
+            el.append(0.0)
+        length = math.sqrt(el[0] * el[0] + el[1] * el[1] + el[2] * el[2])
+        norm = math.hypot(el[0], el[1]) if self.mode == "planar" else length
         if norm <= 1e-12:
             what = "an x-y part" if self.mode == "planar" else "a non-zero length"
             raise ValueError(f"edge must have {what}, got {e.tolist()}")
+        cov = None
+        if edge_cov is not None:
+            cov = np.asarray(edge_cov, dtype=float)[None]
+            if cov.shape != (1, 3, 3):
+                raise ValueError(f"edge_cov must have shape (3, 3), got {cov.shape[1:]}")
+            cov = as_edge_covs(cov, np.array(el)[None] / length)
+        if self.mode == "planar":
+            # From the edge as given, before its z part goes.
+            if cov is None:
+                rho2 = (el[0] * el[0] + el[1] * el[1]) / (length * length)
+                noise = _isotropic_rotation_variance(se, rho2, e.shape[0])
+            else:
+                noise = edge_rotation_variance(e[None], se, cov)[0]
+            el[2] = 0.0
+        elif cov is None:
+            noise = isotropic_edge_covs(np.array(el)[None] / length, se)[0]
+        else:
+            noise = cov[0]
         el = [v / norm for v in el]
         if len(xl) == 2:
             xl.append(0.0)
@@ -177,6 +227,7 @@ class JointAxisEstimator:
         self._edges[n] = orient_like(el, self._edges[max(0, n - SIGN_LOOKBACK) : n]) if n else el
         self._point_std[n] = sx
         self._edge_std[n] = se
+        self._edge_noise[n] = noise
         self._n = n + 1
         if len(self._dirs) < 3:
             tol = math.cos(max(_DISTINCT_TOL, 3.0 * se))
@@ -186,15 +237,9 @@ class JointAxisEstimator:
         self._stale = True
 
     def _grow(self) -> None:
-        cap = 2 * self._points.shape[0]
-        for name in ("_points", "_edges"):
+        for name in ("_points", "_edges", "_point_std", "_edge_std", "_edge_noise"):
             old = getattr(self, name)
-            new = np.empty((cap, 3))
-            new[: self._n] = old[: self._n]
-            setattr(self, name, new)
-        for name in ("_point_std", "_edge_std"):
-            old = getattr(self, name)
-            new = np.empty(cap)
+            new = np.empty((2 * old.shape[0],) + old.shape[1:])
             new[: self._n] = old[: self._n]
             setattr(self, name, new)
 
@@ -220,10 +265,9 @@ class JointAxisEstimator:
             return None
         est = None
         x = self._points[:n]
-        sx = self._point_std[:n]
-        se = self._edge_std[:n]
+        noise = _Noise(self._point_std[:n].copy(), self._edge_noise[:n].copy())
         if self._state is not None and n < self._n_full * _FULL_REFIT_GROWTH:
-            out = _update_state(x, self._edges[:n], sx, se, self.loss, self._state)
+            out = _update_state(x, self._edges[:n], noise, self.loss, self._state)
             if out is not None:
                 est, self._state = out
         if est is None:
@@ -231,8 +275,7 @@ class JointAxisEstimator:
                 x.copy(),
                 self._edges[:n].copy(),
                 np.ones(n),
-                sx.copy(),
-                se.copy(),
+                noise,
                 self.loss,
                 None,
                 math.radians(1.0),
@@ -249,7 +292,15 @@ class JointAxisEstimator:
         x = self._points[:n]
         e = self._edges[:n]
         sx = self._point_std[:n]
-        se = self._edge_std[:n]
+        var_z = self._edge_noise[:n]
+        if self.loss != "linear":
+            # Warm start from the last solution (no consensus) until the measurements have
+            # grown by _FULL_REFIT_GROWTH; every row of the online data is usable.
+            start = self._state if n < self._n_full * _FULL_REFIT_GROWTH else None
+            est, self._state = _robust_planar(_Rows(x, e, None, sx, var_z), self.loss, None, start)
+            if start is None:
+                self._n_full = n
+            return None if est.degenerate else est
         prev = self._last
         passes = 1
         if prev is None or prev.degenerate:
@@ -258,7 +309,7 @@ class JointAxisEstimator:
         for _ in range(passes):
             if prev is None or prev.degenerate:
                 return None
-            var = planar_residual_variance(x[:, :2], e[:, :2], prev.point[:2], sx, se)
+            var = planar_residual_variance(x[:, :2], e[:, :2], prev.point[:2], sx, var_z)
             prev = _planar_fit(x, e, 1.0 / var)
         if prev is None or prev.degenerate:
             return None
