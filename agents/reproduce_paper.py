@@ -19,8 +19,8 @@ trial and never told. Everything the finger does follows from F/T readings:
   the *noisy* reading reaches 5 N; then the finger holds still and averages readings (a
   filtered F/T reading) and :func:`~tactile_gym.sensing.estimate_contact` turns the mean into
   the indentation-corrected contact point, the skin normal and the edge direction, with the
-  noise std divided by sqrt(n). If the finger sinks below the grip's nominal top without
-  touching, there is no grip under it.
+  noise std divided by sqrt(n). If the finger sinks ``MISS_DEPTH`` below the grip's nominal
+  top without touching, there is no grip under it.
 * **Edge search** (:func:`find_edge`): presses along a line across the edge. A press whose
   patch the edge truncates shifts the contact toward the face's interior (the skin normal
   leans that way) and tilts the force off the normal; a press on the open face puts the
@@ -41,7 +41,7 @@ trial and never told. Everything the finger does follows from F/T readings:
   for the edge again there. The operator predicts the turned edge line by turning the last
   measured one (point and direction) by the commanded turn about the *nominal* hinge, and
   starts the search at the foot of the perpendicular from the last press onto that line. The
-  grip turned under the finger, so the new contact lies about 10 mm nearer the hinge along
+  grip turned under the finger, so the new contact lies 10-14 mm nearer the hinge along
   the edge per 30 deg (the paper's "contact points move").
 * **Contact fixed**: the hand turns the grip with the finger resting on it, and the finger is
   carried along with the grip (the hand turns the finger's pose about the true axis with the
@@ -404,7 +404,9 @@ def turn_by_hand(scene: ProbeScene, turn: float, carry_finger: bool) -> None:
 
     The finger must be lifted clear. The joint is set to its current angle plus ``turn``.
     With ``carry_finger`` the finger is carried along with the grip, as a finger resting on
-    it would be: its pose is turned by ``turn`` about the true axis.
+    it would be: its pose is turned by ``turn`` about the true axis. Between turns the hand
+    steadies the grip: :func:`make_scene` gives the joint a holding torque of
+    ``HAND_HOLD_TORQUE``.
     """
     position, rotation = scene.fingertip_position, scene.fingertip_rotation
     if carry_finger:
