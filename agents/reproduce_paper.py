@@ -1,39 +1,77 @@
-"""Reproduce Table I of Matsuo et al. (IROS 2010) in simulation.
+"""Reproduce Table I of Matsuo et al. (IROS 2010) in simulation, by touch alone.
 
-    python -m agents.reproduce_paper                 # 10 trials per cell, table + plots
-    python -m agents.reproduce_paper --trials 2      # quick check
+    python -m agents.reproduce_paper                      # 10 trials per cell, table + plots
+    python -m agents.reproduce_paper --trials 30 --seeds 3 --variants all
 
-The set-up is ``HingeProbe-v0``'s scene at its nominal layout: scissors on the table, true
-axis at (17, 105) mm. As in the paper's sequence (section IV-C), each trial takes N
-measurements; before each one the grip is turned counter-clockwise by a fixed step "by hand"
-(the joint is set), and during a measurement the joint is held (its holding torque is raised
-to ``HOLD_TORQUE``, like a hand steadying the grip). A measurement is the paper's 5 N press on
-the edge, plus the 0.8 mm shear across the edge that the physics needs to make the edge
-observable (DESIGN.md 2.1-2.2); the wrench is then averaged over ``N_READINGS`` readings.
-It goes through the package's own ``estimate_contact`` (indentation-corrected point, edge
-direction) into the paper's proposed planar fit (eq. 16-21, unweighted as in the paper)
-and its simple method (eq. 22-26).
+The scene is the paper's: scissors on the table, the right grip (the free link) hinged about
+a vertical axis at (17, 105) mm, a soft fingertip on a 6-axis F/T sensor held upright like the
+paper's coordinate-measuring machine. Each trial follows the paper's sequence (section IV-C):
+touch the grip, measure the contact point and the edge direction, lift, turn the grip
+counter-clockwise by hand, and repeat; then fit the joint position (p, q) with the proposed
+method (eq. 16-21, unweighted as in the paper) and the simple method (eq. 22-26).
 
-Cells: the contact point *slides* along the edge between measurements (``SLIDE_PER_RAD`` of
-travel per radian of turn, i.e. 10 mm per 30 deg) or *does not* (the same point of the grip
-is pressed every time); the paper's 4 measurements 30 deg apart, and a wide variant of
-7 measurements 20 deg apart (120 deg). Errors are |(p, q)_est - (p, q)_true| in mm.
+**What the operator knows.** Only the nominal layout (:class:`NominalLayout`: the hinge pin
+near (17, 105) mm, the grip pointing toward +x, 20 mm wide, 8 mm thick, its -y edge probed)
+and the commanded turn of the hand. The grip's true start angle is drawn in +-10 deg per
+trial and never told. Everything the finger does follows from F/T readings:
+
+* **Press** (:func:`press`): a pure press, straight down (world -z) at a chosen point, until
+  the *noisy* reading reaches 5 N; then the finger holds still and averages readings (a
+  filtered F/T reading) and :func:`~tactile_gym.sensing.estimate_contact` turns the mean into
+  the indentation-corrected contact point, the skin normal and the edge direction, with the
+  noise std divided by sqrt(n). If the finger sinks ``MISS_DEPTH`` below the grip's nominal
+  top without touching, there is no grip under it.
+* **Edge search** (:func:`find_edge`): presses along a line across the edge. A press whose
+  patch the edge truncates shifts the contact toward the face's interior (the skin normal
+  leans that way) and tilts the force off the normal; a press on the open face puts the
+  contact right under the sphere centre; a press past the edge rests on the corner. Each
+  press moves the next one so that the sphere centre lands ``CENTRE_PAST_CONTACT`` beyond
+  the contact point just measured, measured across the edge (the edge direction from the
+  press, once observable, sets "across"). That rule has a fixed point about 1 mm past the
+  edge (force tilt ~10 deg), where the edge cuts the patch; it takes ``SEARCH_GAIN`` of the
+  step, which makes it converge in one or two presses near the edge and walk 4 mm per press
+  over the open face. The search stops when the next step would be shorter than
+  ``CONVERGED_STEP``; that press, read longer, is the measurement.
+* **Hand** (:func:`turn_by_hand`, the only code besides the error and the truth helpers
+  that reads the simulator's ground truth): sets the joint to the current angle plus the
+  commanded turn while the finger is lifted. The hand holds the grip throughout (the joint's
+  holding torque is ``HAND_HOLD_TORQUE`` instead of the loose hinge's), so a 5 N press does
+  not turn it.
+* **Contact slides**: after the turn the finger goes back to where it pressed last and looks
+  for the edge again there. The operator predicts the turned edge line by turning the last
+  measured one (point and direction) by the commanded turn about the *nominal* hinge, and
+  starts the search at the foot of the perpendicular from the last press onto that line. The
+  grip turned under the finger, so the new contact lies 10-14 mm nearer the hinge along
+  the edge per 30 deg (the paper's "contact points move").
+* **Contact fixed**: the hand turns the grip with the finger resting on it, and the finger is
+  carried along with the grip (the hand turns the finger's pose about the true axis with the
+  joint; the finger is lifted just clear meanwhile, so the skin is not dragged). The finger
+  then runs the same edge search from there; as it sits where the last search ended
+  relative to the grip, one press usually confirms it. The contact stays at the same point
+  of the grip.
+
+Measurement schemes: the paper's 4 measurements 30 deg apart, and a wide one of 7
+measurements 20 deg apart (120 deg). Held-out conditions (``--variants``) change the world,
+not the protocol: doubled sensor noise, skin friction 0.3 and 0.8, free links of 60 and
+150 mm. Errors are |(p, q)_est - (p, q)_true| in mm.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import dataclass
+import math
+import time
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from tactile_gym.envs.plotting import draw_estimate, draw_measurements
-from tactile_gym.envs.scenarios import probed_edge, quaternion_z_to
 from tactile_gym.estimation import fit_axis_planar, fit_axis_simple
-from tactile_gym.sensing import estimate_contact
-from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
+from tactile_gym.sensing import ContactEstimate, estimate_contact
+from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
+from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
 
 #: Table I of the paper: mean joint-position error, mm.
 PAPER_TABLE = {
@@ -42,129 +80,526 @@ PAPER_TABLE = {
     ("fixed", "proposed"): 7.1,
     ("fixed", "simple"): 5.9,
 }
-HOLD_TORQUE = 2.0  # N m, joint held during a measurement
-SLIDE_PER_RAD = 0.010 / np.deg2rad(30.0)  # m of contact travel along the edge per rad of turn
-PRESS_FORCE = 5.0  # N
-APPROACH_TILT = np.deg2rad(10.0)  # rad, finger axis from vertical toward the probed side
-SHEAR = 0.0008  # m, across the edge
-N_READINGS = 4  # wrench readings averaged per measurement (0.2 s at 20 Hz)
-VARIANTS = {"paper": (4, np.deg2rad(30.0)), "wide": (7, np.deg2rad(20.0))}
+#: Measurement schemes: (number of measurements, turn between them in rad).
+SCHEMES = {"paper": (4, math.radians(30.0)), "wide": (7, math.radians(20.0))}
+CASES = ("slides", "fixed")
+
+PRESS_FORCE = 5.0  # N, the paper's press
+TOUCH_FORCE = 0.3  # N, |f| reading that counts as touching (15 sigma of the default noise)
+APPROACH_STEP = 0.0003  # m per control step, descent before touching
+MIN_PRESS_STEP = 0.00002  # m per control step, smallest descent while pressing
+PRESS_GAIN = 0.6  # of the step a secant stiffness predicts to reach PRESS_FORCE
+TRAVEL_CLEARANCE = 0.0015  # m, sphere bottom over the grip's nominal top while travelling
+MISS_DEPTH = 0.004  # m below the nominal top with no touch: no grip under the finger
+SEARCH_READINGS = 4  # readings averaged for a search press (0.2 s at 20 Hz)
+MEASURE_READINGS = 20  # readings averaged for the measurement press (1 s at 20 Hz)
+CENTRE_PAST_CONTACT = 0.0026  # m, sphere centre beyond the contact: ~1 mm past the edge
+SEARCH_GAIN = 1.5  # the contact moves ~0.4 mm per mm of finger near the edge: 1 / (1 - 0.4)
+CONVERGED_STEP = 0.0003  # m
+TRUSTED_EDGE_STD = math.radians(5.0)  # rad, an edge this sure sets the search's direction
+#: m, the scan step after presses that touched nothing; the finger touches the grip (or its
+#: corner) anywhere within ~40 mm across it, so this cannot step over it.
+MISS_STEP = 0.012
+MAX_PRESSES = 8  # per search
+#: m from the nominal hinge along the nominal grip, the first search of a trial. Sliding
+#: contacts creep ~10 mm toward the hinge per 30 deg, so they start far out to stay clear of
+#: the fixed grip; fixed ones stay, so they start nearer, where an edge-direction error moves
+#: the edge line less (DESIGN.md 2.5).
+START_ALONG = {"slides": 0.060, "fixed": 0.035}
+END_CLEARANCE = 0.012  # m, the first search keeps this far from the grip's free end
+START_INSET = 0.005  # m inside the nominal edge, the first search
+START_ANGLE_RANGE = math.radians(10.0)  # rad, the grip's true start angle, +- (never told)
+HAND_HOLD_TORQUE = 2.0  # N m, the hand steadying the grip (the loose hinge: 0.1 N m)
+DOWN = matrix_to_quaternion(z_to([0.0, 0.0, -1.0]))  # finger axis pointing down
+
+#: Held-out conditions: a change of the world, the protocol unchanged. With another grip
+#: length the operator's nominal layout has that length (the grip is in plain sight).
+CONDITIONS = {
+    "nominal": {},
+    "noise_x2": {
+        "sensor": SensorConfig(
+            force_noise_std=2 * SensorConfig().force_noise_std,
+            moment_noise_std=2 * SensorConfig().moment_noise_std,
+        )
+    },
+    "friction_0.3": {"skin": SkinConfig(friction=0.3)},
+    "friction_0.8": {"skin": SkinConfig(friction=0.8)},
+    "link_60mm": {"object": {"free_link_size": (0.06, 0.02, 0.008)}, "reach": 0.050},
+    "link_150mm": {"object": {"free_link_size": (0.15, 0.02, 0.008)}, "reach": 0.140},
+}
+
+
+@dataclass(frozen=True)
+class NominalLayout:
+    """What the operator knows of the layout: the documented, not the episode's, geometry.
+
+    Attributes:
+        hinge: (2,) hinge pin near here, world x-y, m.
+        heading: direction of the free grip at joint angle 0, rad from world +x.
+        width: width of the grip, m.
+        thickness: thickness of the grip (its top face over the table), m.
+        reach: how far the grip reaches past the hinge pin, m.
+        side: which side of the grip is probed: +1 its left edge (toward +y at heading 0),
+            -1 its right edge.
+    """
+
+    hinge: tuple[float, float] = (0.017, 0.105)
+    heading: float = 0.0
+    width: float = 0.020
+    thickness: float = 0.008
+    reach: float = 0.090
+    side: int = -1
+
+    def first_search(self, along: float) -> tuple[np.ndarray, np.ndarray]:
+        """Start point (2,) and outward direction (2,) of the first edge search, world x-y.
+
+        The start is ``along`` (m) out along the nominal grip, at most ``END_CLEARANCE``
+        short of its end, and ``START_INSET`` inside its nominal probed edge; outward points
+        across that edge, away from the grip.
+        """
+        along = min(along, self.reach - END_CLEARANCE)
+        heading = np.array([math.cos(self.heading), math.sin(self.heading)])
+        outward = self.side * np.array([-heading[1], heading[0]])
+        start = (
+            np.asarray(self.hinge) + along * heading + (0.5 * self.width - START_INSET) * outward
+        )
+        return start, outward
+
+
+@dataclass(frozen=True)
+class Touch:
+    """What one press told, world frame.
+
+    Attributes:
+        centre: (3,) sphere centre while pressed, m.
+        touched: whether the finger met the grip above ``MISS_DEPTH`` below its top.
+        contact: the estimate from the averaged wrench (sensor frame); None without touch.
+        point: (3,) indentation-corrected contact point, m; NaN without a valid contact.
+        edge: (3,) unit edge direction; NaN when the press shows no edge.
+        wrench: (6,) the averaged reading, sensor frame, N and N m.
+        readings: how many readings were averaged.
+    """
+
+    centre: np.ndarray
+    touched: bool
+    contact: ContactEstimate | None
+    point: np.ndarray
+    edge: np.ndarray
+    wrench: np.ndarray
+    readings: int
 
 
 @dataclass
 class Trial:
-    points: np.ndarray  # (N, 3) contact points, world, m
-    edges: np.ndarray  # (N, 3) edge directions, world
-    proposed: np.ndarray  # (2,) estimated (p, q), m
-    simple: np.ndarray  # (2,) estimated (p, q), m
+    """One trial: its measurements and both estimates.
 
-
-def measure(
-    scene: ProbeScene, joint_angle: float, along: float, rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray]:
-    """One press-and-shear measurement at a joint angle and a point along the edge.
-
-    Returns the indentation-corrected contact point and the edge direction (world frame);
-    NaNs when the contact estimate is invalid or the edge unobservable.
+    Attributes:
+        points: (N, 3) contact points, world, m (NaN where a search failed).
+        edges: (N, 3) edge directions, world (NaN where unobservable).
+        centres: (N, 3) sphere centres of the measurement presses, world, m.
+        presses: (N,) presses each search took.
+        proposed: (2,) estimated (p, q), m; NaN when the fit was degenerate.
+        simple: (2,) estimated (p, q), m; NaN when the fit was degenerate.
     """
-    geometry = scene.geometry
-    origin, direction, side, top = probed_edge(scene.object_config, joint_angle)
-    approach = np.cos(APPROACH_TILT) * top + np.sin(APPROACH_TILT) * side
-    centre = origin + along * direction + approach * (geometry.outer_radius + 0.002)
-    orientation = quaternion_z_to(-approach)
-    position = centre + approach * geometry.cylinder_length
-    scene.reset(joint_angle, position, orientation)
-    for _ in range(80):  # press straight down until the paper's 5 N
-        if np.linalg.norm(scene.true_wrench[:3]) >= PRESS_FORCE:
-            break
-        position = position - np.array([0.0, 0.0, 0.0003])
-        scene.control_step(position, orientation)
-    for _ in range(4):  # shear across the edge, away from the link
-        position = position + side * SHEAR / 4
-        scene.control_step(position, orientation)
-    wrench = np.zeros(6)
-    for _ in range(N_READINGS):  # hold still and average, as a filtered F/T reading would
-        scene.control_step(position, orientation)
-        wrench += scene.read_wrench(rng) / N_READINGS
+
+    points: np.ndarray
+    edges: np.ndarray
+    centres: np.ndarray
+    presses: np.ndarray
+    proposed: np.ndarray
+    simple: np.ndarray
+
+
+# --- the finger --------------------------------------------------------------------------
+
+
+def _sensor_position(scene: ProbeScene, centre: np.ndarray) -> np.ndarray:
+    """Sensor origin that puts the sphere centre at ``centre`` with the finger pointing down."""
+    return centre + np.array([0.0, 0.0, scene.geometry.cylinder_length])
+
+
+def _sphere_centre(scene: ProbeScene) -> np.ndarray:
+    return scene.sensor_to_world_point(scene.geometry.sphere_center)
+
+
+def _move(scene: ProbeScene, centre: np.ndarray) -> None:
+    """Move the finger (pointing down) until its sphere centre is at ``centre``, world, m."""
+    target = _sensor_position(scene, centre)
+    for _ in range(100):
+        if np.linalg.norm(scene.fingertip_position - target) < 1e-9:
+            return
+        scene.control_step(target, DOWN)
+    raise RuntimeError(f"the finger did not reach {target} m in 100 control steps")
+
+
+def _travel_height(scene: ProbeScene, nominal: NominalLayout) -> float:
+    """Sphere-centre height, m, that clears the grip's nominal top by TRAVEL_CLEARANCE."""
+    return nominal.thickness + TRAVEL_CLEARANCE + scene.geometry.outer_radius
+
+
+def lift(scene: ProbeScene, nominal: NominalLayout) -> None:
+    """Raise the finger straight up to the travel height."""
+    centre = _sphere_centre(scene)
+    _move(scene, np.r_[centre[:2], _travel_height(scene, nominal)])
+
+
+def _read(scene: ProbeScene, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Mean of ``n`` readings taken while holding still, one per control step."""
+    position = scene.fingertip_position
+    total = np.zeros(6)
+    for _ in range(n):
+        scene.control_step(position, DOWN)
+        total += scene.read_wrench(rng)
+    return total / n
+
+
+def _interpret(
+    scene: ProbeScene, wrench: np.ndarray, n: int
+) -> tuple[ContactEstimate, np.ndarray, np.ndarray]:
+    """Contact estimate from a mean of ``n`` readings, and its point and edge in world."""
+    sensor = scene.sensor_config
     contact = estimate_contact(
-        wrench[:3], wrench[3:], geometry, skin_stiffness=scene.skin_config.normal_stiffness
+        wrench[:3],
+        wrench[3:],
+        scene.geometry,
+        force_noise_std=sensor.force_noise_std / math.sqrt(n),
+        moment_noise_std=sensor.moment_noise_std / math.sqrt(n),
+        skin_stiffness=scene.skin_config.normal_stiffness,
     )
     if not contact.valid:
-        return np.full(3, np.nan), np.full(3, np.nan)
-    point = scene.sensor_to_world_point(contact.corrected_point)
-    edge = scene.sensor_to_world_vector(contact.edge_direction)
-    return point, edge
+        return contact, np.full(3, np.nan), np.full(3, np.nan)
+    return (
+        contact,
+        scene.sensor_to_world_point(contact.corrected_point),
+        scene.sensor_to_world_vector(contact.edge_direction),
+    )
+
+
+def press(
+    scene: ProbeScene,
+    xy: np.ndarray,
+    nominal: NominalLayout,
+    rng: np.random.Generator,
+    readings: int = SEARCH_READINGS,
+) -> Touch:
+    """Press straight down at world x-y ``xy`` to PRESS_FORCE on the noisy reading.
+
+    The finger travels at the travel height to above ``xy``, descends (``APPROACH_STEP`` per
+    control step) until the reading shows a touch, then presses on with steps a secant
+    estimate of the contact stiffness sizes, and stops at the first reading of at least
+    PRESS_FORCE. It never moves sideways once it touches. It stays pressed on return (the
+    caller may read more, then ``lift``); after a miss it is already lifted.
+
+    Args:
+        scene: the scene.
+        xy: (2,) where to press, world, m.
+        nominal: the nominal layout (the grip's top height).
+        rng: the noise of the readings.
+        readings: how many readings to average once pressed.
+    """
+    lift(scene, nominal)
+    centre = np.r_[np.asarray(xy, dtype=float), _travel_height(scene, nominal)]
+    _move(scene, centre)
+    radius = scene.geometry.outer_radius
+    floor = nominal.thickness - MISS_DEPTH + radius
+    force_before = step_before = None
+    for _ in range(400):
+        force = float(np.linalg.norm(scene.read_wrench(rng)[:3]))
+        if force >= PRESS_FORCE:
+            break
+        if force < TOUCH_FORCE:
+            if centre[2] < floor:
+                lift(scene, nominal)
+                nan = np.full(3, np.nan)
+                return Touch(centre, False, None, nan, nan, np.zeros(6), 0)
+            step = APPROACH_STEP
+        elif force_before is None or force <= force_before:
+            step = MIN_PRESS_STEP
+        else:
+            stiffness = (force - force_before) / step_before
+            step = PRESS_GAIN * (PRESS_FORCE - force) / stiffness
+            step = min(max(step, MIN_PRESS_STEP), APPROACH_STEP)
+        force_before = force if force >= TOUCH_FORCE else None
+        step_before = step
+        centre = centre - np.array([0.0, 0.0, step])
+        scene.control_step(_sensor_position(scene, centre), DOWN)
+    else:
+        raise RuntimeError(f"the press at {xy} m did not reach {PRESS_FORCE} N")
+    wrench = _read(scene, rng, readings)
+    contact, point, edge = _interpret(scene, wrench, readings)
+    return Touch(centre, True, contact, point, edge, wrench, readings)
+
+
+def read_on(scene: ProbeScene, touch: Touch, rng: np.random.Generator, total: int) -> Touch:
+    """Hold a press still and read on until ``total`` readings are averaged in all."""
+    extra = total - touch.readings
+    if extra <= 0 or not touch.touched:
+        return touch
+    wrench = (touch.readings * touch.wrench + extra * _read(scene, rng, extra)) / total
+    contact, point, edge = _interpret(scene, wrench, total)
+    return replace(touch, wrench=wrench, contact=contact, point=point, edge=edge, readings=total)
+
+
+def _across(edge: np.ndarray, outward: np.ndarray) -> np.ndarray:
+    """Unit horizontal direction across ``edge``, on the same side as ``outward``."""
+    across = np.array([edge[1], -edge[0]])
+    norm = float(np.linalg.norm(across))
+    if not norm > 0.3:  # an edge that is not roughly horizontal: keep the old direction
+        return outward
+    across /= norm
+    return across if across @ outward >= 0 else -across
+
+
+def find_edge(
+    scene: ProbeScene,
+    start: np.ndarray,
+    outward: np.ndarray,
+    nominal: NominalLayout,
+    rng: np.random.Generator,
+) -> tuple[Touch, np.ndarray, int]:
+    """Find the probed edge by touch and measure there.
+
+    Presses along a line across the edge, starting at ``start``, until a press sits about
+    1 mm past the edge (see the module docstring for the rule). That press is then read for
+    ``MEASURE_READINGS`` readings in all and returned, the finger still pressed.
+
+    Args:
+        scene: the scene.
+        start: (2,) first press, world x-y, m.
+        outward: (2,) unit direction across the edge, away from the grip's interior.
+        nominal: the nominal layout.
+        rng: the noise of the readings.
+
+    Returns:
+        (the measurement press, the outward direction it was found along, presses taken).
+    """
+    xy = np.asarray(start, dtype=float)
+    outward = np.asarray(outward, dtype=float)
+    misses, anchor = 0, xy
+    for k in range(1, MAX_PRESSES + 1):
+        touch = press(scene, xy, nominal, rng)
+        if touch.touched and touch.contact.valid:
+            misses = 0
+            if touch.contact.edge_std < TRUSTED_EDGE_STD:
+                outward = _across(touch.edge[:2], outward)
+            step = SEARCH_GAIN * ((touch.point[:2] - xy) @ outward + CENTRE_PAST_CONTACT)
+            if abs(step) < CONVERGED_STEP or k == MAX_PRESSES:
+                break
+            xy = xy + step * outward
+        else:
+            # Nothing under the finger: the grip is off to one side or the other; look
+            # inward first, then outward, ever further.
+            if not misses:
+                anchor = xy
+            misses += 1
+            xy = anchor + MISS_STEP * ((misses + 1) // 2) * (-1) ** misses * outward
+    return read_on(scene, touch, rng, MEASURE_READINGS), outward, k
+
+
+# --- the hand (reads the truth) ----------------------------------------------------------
+
+
+def turn_by_hand(scene: ProbeScene, turn: float, carry_finger: bool) -> None:
+    """The hand turns the grip by ``turn`` (rad, counter-clockwise seen from above).
+
+    The finger must be lifted clear. The joint is set to its current angle plus ``turn``.
+    With ``carry_finger`` the finger is carried along with the grip, as a finger resting on
+    it would be: its pose is turned by ``turn`` about the true axis. Between turns the hand
+    steadies the grip: :func:`make_scene` gives the joint a holding torque of
+    ``HAND_HOLD_TORQUE``.
+    """
+    position, rotation = scene.fingertip_position, scene.fingertip_rotation
+    if carry_finger:
+        pin, axis = scene.true_axis
+        spin = rotvec_to_matrix(turn * axis)
+        position = pin + spin @ (position - pin)
+        rotation = spin @ rotation
+    scene.reset(scene.joint_angle + turn, position, matrix_to_quaternion(rotation))
+
+
+def true_axis_xy(scene: ProbeScene) -> np.ndarray:
+    """The true joint position (p, q), world x-y, m (for the error only)."""
+    return scene.true_axis[0][:2].copy()
+
+
+def position_error(scene: ProbeScene, estimate: np.ndarray) -> float:
+    """|(p, q)_est - (p, q)_true|, m; NaN for a failed estimate."""
+    return float(np.linalg.norm(np.asarray(estimate) - true_axis_xy(scene)))
+
+
+# --- the protocol --------------------------------------------------------------------------
+
+
+def _turn_about(point: np.ndarray, centre: np.ndarray, turn: float) -> np.ndarray:
+    """Turn x-y ``point`` by ``turn`` rad about x-y ``centre``."""
+    c, s = math.cos(turn), math.sin(turn)
+    d = np.asarray(point) - centre
+    return centre + np.array([c * d[0] - s * d[1], s * d[0] + c * d[1]])
+
+
+def _turn(vector: np.ndarray, turn: float) -> np.ndarray:
+    return _turn_about(vector, np.zeros(2), turn)
 
 
 def run_trial(
-    scene: ProbeScene, n: int, step: float, slides: bool, rng: np.random.Generator
+    scene: ProbeScene,
+    nominal: NominalLayout,
+    n: int,
+    step: float,
+    slides: bool,
+    rng: np.random.Generator,
 ) -> Trial:
-    """N measurements, the grip turned by ``step`` between them."""
-    start_angle = rng.uniform(-np.deg2rad(10.0), np.deg2rad(10.0))
-    start_along = rng.uniform(0.03, 0.04)
-    points, edges = [], []
+    """One trial of the paper's sequence: N measurements, the grip turned ``step`` between.
+
+    Args:
+        scene: the scene; its grip is put at a random start angle here.
+        nominal: what the operator knows of the layout.
+        n: number of measurements.
+        step: turn of the hand between measurements, rad (counter-clockwise).
+        slides: whether the contact slides along the edge (else the hand carries the finger).
+        rng: start angle and reading noise.
+    """
+    start_angle = rng.uniform(-START_ANGLE_RANGE, START_ANGLE_RANGE)
+    start, outward = nominal.first_search(START_ALONG["slides" if slides else "fixed"])
+    home = np.r_[start, _travel_height(scene, nominal)]
+    scene.reset(start_angle, _sensor_position(scene, home), DOWN)
+    hinge = np.asarray(nominal.hinge, dtype=float)
+    points, edges, centres, presses = [], [], [], []
     for i in range(n):
-        angle = start_angle + i * step
-        along = start_along + (i * step * SLIDE_PER_RAD if slides else 0.0)
-        point, edge = measure(scene, angle, along, rng)
-        points.append(point)
-        edges.append(edge)
+        if i:
+            lift(scene, nominal)
+            turn_by_hand(scene, step, carry_finger=not slides)
+            outward = _turn(outward, step)
+            if slides:
+                # The last edge line turned about the nominal hinge; search from the foot
+                # of the perpendicular from the last press onto it, as far past it as the
+                # last press was past its contact.
+                centre, point = centres[-1][:2], points[-1][:2]
+                if np.all(np.isfinite(point)):
+                    turned = _turn_about(point, hinge, step)
+                    past = (centre - point) @ _turn(outward, -step)
+                    start = centre + (past - (centre - turned) @ outward) * outward
+                else:
+                    start = centre
+            else:
+                start = _sphere_centre(scene)[:2]
+        touch, outward, k = find_edge(scene, start, outward, nominal, rng)
+        points.append(touch.point)
+        edges.append(touch.edge)
+        centres.append(touch.centre)
+        presses.append(k)
+    lift(scene, nominal)
     points, edges = np.array(points), np.array(edges)
-    ok = np.all(np.isfinite(points), axis=1) & np.all(np.isfinite(edges), axis=1)
-    proposed = fit_axis_planar(points[ok], edges[ok])
-    simple = fit_axis_simple(points[np.all(np.isfinite(points), axis=1)])
-    return Trial(points, edges, proposed.point[:2], simple.point[:2])
+    has_point = np.all(np.isfinite(points), axis=1)
+    has_edge = has_point & np.all(np.isfinite(edges), axis=1)
+    proposed = fit_axis_planar(points[has_edge], edges[has_edge])
+    simple = fit_axis_simple(points[has_point])
+    return Trial(
+        points,
+        edges,
+        np.array(centres),
+        np.array(presses),
+        np.full(2, np.nan) if proposed.degenerate else proposed.point[:2],
+        np.full(2, np.nan) if simple.degenerate else simple.point[:2],
+    )
 
 
-def reproduce(trials: int = 10, seed: int = 0) -> dict:
-    """Run every cell; returns the per-trial errors (mm) and the trials themselves."""
-    config = ObjectConfig.scissors(holding_torque=HOLD_TORQUE)
-    scene = ProbeScene(config, SkinConfig())
-    truth = np.asarray(config.joint_position[:2])
+# --- the experiment ----------------------------------------------------------------------
+
+
+def make_scene(condition: str) -> ProbeScene:
+    """The paper's scene under a condition of ``CONDITIONS``, the hand holding the grip."""
+    if condition not in CONDITIONS:
+        raise ValueError(f"condition must be one of {sorted(CONDITIONS)}, got {condition!r}")
+    change = CONDITIONS[condition]
+    config = ObjectConfig.scissors(holding_torque=HAND_HOLD_TORQUE, **change.get("object", {}))
+    return ProbeScene(
+        config, change.get("skin", SkinConfig()), change.get("sensor", SensorConfig())
+    )
+
+
+def reproduce(
+    trials: int = 10,
+    seeds: tuple[int, ...] = (0,),
+    conditions: tuple[str, ...] = ("nominal",),
+    schemes: tuple[str, ...] = tuple(SCHEMES),
+    nominal: NominalLayout = NominalLayout(),  # noqa: B008 - frozen dataclass
+) -> dict:
+    """Run every cell: ``trials`` trials per seed, each condition, scheme and contact case.
+
+    The trials of a cell draw from the same random streams under every condition, so the
+    conditions differ only by what they change.
+
+    Returns:
+        ``{key: cell}`` with key ``(scheme, case)`` for the nominal condition and
+        ``(condition, scheme, case)`` for the others; a cell holds ``trials`` (the Trial
+        records), ``proposed_mm`` and ``simple_mm`` (errors, NaN where a fit failed).
+    """
     results = {}
-    try:
-        for variant, (n, step) in VARIANTS.items():
-            for case in ("slides", "fixed"):
-                rng = np.random.default_rng([seed, n, case == "slides"])
-                runs = [run_trial(scene, n, step, case == "slides", rng) for _ in range(trials)]
-                results[(variant, case)] = {
-                    "trials": runs,
-                    "proposed_mm": [1e3 * float(np.linalg.norm(t.proposed - truth)) for t in runs],
-                    "simple_mm": [1e3 * float(np.linalg.norm(t.simple - truth)) for t in runs],
-                }
-    finally:
-        scene.close()
+    for condition in conditions:
+        scene = make_scene(condition)
+        layout = replace(nominal, reach=CONDITIONS[condition].get("reach", nominal.reach))
+        try:
+            for scheme in schemes:
+                n, step = SCHEMES[scheme]
+                for case in CASES:
+                    runs, proposed, simple = [], [], []
+                    for seed in seeds:
+                        rng = np.random.default_rng([seed, n, CASES.index(case)])
+                        for _ in range(trials):
+                            t = run_trial(scene, layout, n, step, case == "slides", rng)
+                            runs.append(t)
+                            proposed.append(1e3 * position_error(scene, t.proposed))
+                            simple.append(1e3 * position_error(scene, t.simple))
+                    key = (scheme, case) if condition == "nominal" else (condition, scheme, case)
+                    results[key] = {"trials": runs, "proposed_mm": proposed, "simple_mm": simple}
+        finally:
+            scene.close()
     return results
 
 
-def markdown_table(results: dict, trials: int) -> str:
+def _stats(errors: list[float]) -> str:
+    e = np.asarray(errors, dtype=float)
+    ok = e[np.isfinite(e)]
+    if not len(ok):
+        return "failed"
+    text = f"{ok.mean():.1f} / {np.median(ok):.1f} / {np.percentile(ok, 90):.1f}"
+    return text if len(ok) == len(e) else f"{text} ({len(e) - len(ok)} failed)"
+
+
+def markdown_table(results: dict, trials: int, seeds: int) -> str:
+    """Table I in markdown: mean / median / P90 error per cell, mm, with the paper's means."""
     lines = [
-        f"Joint-position error |(p, q)_est - (p, q)_true| in mm, {trials} trials per cell "
-        "(mean / median); paper = Table I mean.",
+        f"Joint-position error |(p, q)_est - (p, q)_true| in mm, {seeds} seed(s) x {trials} "
+        "trials per cell (mean / median / P90); paper = Table I mean.",
         "",
-        "| measurements | contact | proposed (sim) | proposed (paper) | simple (sim) |"
-        " simple (paper) | simple / proposed |",
-        "|---|---|---|---|---|---|---|",
+        "| condition | measurements | contact | proposed | paper | simple | paper |"
+        " simple / proposed (means) | presses per measurement |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
-    for (variant, case), r in results.items():
-        n, step = VARIANTS[variant]
-        prop, simp = np.array(r["proposed_mm"]), np.array(r["simple_mm"])
-        paper = (
-            (f"{PAPER_TABLE[(case, 'proposed')]:.1f}", f"{PAPER_TABLE[(case, 'simple')]:.1f}")
-            if variant == "paper"
-            else ("-", "-")
-        )
+    for key, cell in results.items():
+        condition, scheme, case = key if len(key) == 3 else ("nominal", *key)
+        n, step = SCHEMES[scheme]
+        prop, simp = np.array(cell["proposed_mm"]), np.array(cell["simple_mm"])
+        paper = scheme == "paper" and condition == "nominal"
+        presses = np.mean([t.presses.mean() for t in cell["trials"]])
         lines.append(
-            f"| {n} x {np.degrees(step):.0f} deg | {'slides' if case == 'slides' else 'fixed'} |"
-            f" {prop.mean():.1f} / {np.median(prop):.1f} | {paper[0]} |"
-            f" {simp.mean():.1f} / {np.median(simp):.1f} | {paper[1]} |"
-            f" {np.median(simp) / max(np.median(prop), 1e-9):.1f}x |"
+            f"| {condition} | {n} x {math.degrees(step):.0f} deg | {case} | {_stats(prop)} |"
+            f" {PAPER_TABLE[(case, 'proposed')] if paper else '-'} | {_stats(simp)} |"
+            f" {PAPER_TABLE[(case, 'simple')] if paper else '-'} |"
+            f" {np.nanmean(simp) / np.nanmean(prop):.1f}x | {presses:.1f} |"
         )
     return "\n".join(lines)
 
 
 def plot(results: dict, truth: np.ndarray, out: Path) -> list[Path]:
-    """Fig. 12/13-style top views, one PNG per contact case of the paper variant."""
+    """Fig. 12/13-style top views, one PNG per contact case of the paper scheme.
+
+    Args:
+        results: as ``reproduce`` returns, with the nominal paper cells.
+        truth: (2,) true (p, q), world, m.
+        out: folder for the PNGs.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -191,29 +626,62 @@ def plot(results: dict, truth: np.ndarray, out: Path) -> list[Path]:
     return paths
 
 
+def true_joint_position(condition: str = "nominal") -> np.ndarray:
+    """The true (p, q) of a condition's scene, world x-y, m (for the plots)."""
+    change = CONDITIONS[condition].get("object", {})
+    return np.asarray(ObjectConfig.scissors(**change).joint_position[:2])
+
+
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--trials", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--trials", type=int, default=10, help="trials per cell and seed")
+    parser.add_argument("--seed", type=int, default=0, help="first seed")
+    parser.add_argument("--seeds", type=int, default=1, help="seeds: seed, seed + 1, ...")
+    parser.add_argument(
+        "--variants",
+        default="none",
+        help="held-out conditions to run as well: 'all', 'none' or a comma list of "
+        + ", ".join(c for c in CONDITIONS if c != "nominal"),
+    )
+    parser.add_argument(
+        "--schemes", default="paper,wide", help="comma list of " + ", ".join(SCHEMES)
+    )
     parser.add_argument("--out", default="results/paper")
     parser.add_argument("--no-plot", action="store_true")
     args = parser.parse_args(argv)
-    if args.trials < 1:
-        raise ValueError(f"--trials must be >= 1, got {args.trials}")
+    if args.trials < 1 or args.seeds < 1:
+        raise ValueError(f"--trials and --seeds must be >= 1, got {args.trials}, {args.seeds}")
+    held_out = [c for c in CONDITIONS if c != "nominal"]
+    if args.variants == "all":
+        variants = held_out
+    elif args.variants == "none":
+        variants = []
+    else:
+        variants = args.variants.split(",")
+        if not set(variants) <= set(held_out):
+            raise ValueError(f"--variants must be 'all', 'none' or from {held_out}")
+    schemes = tuple(args.schemes.split(","))
+    if not set(schemes) <= set(SCHEMES) or "paper" not in schemes:
+        raise ValueError(f"--schemes must include 'paper' and come from {list(SCHEMES)}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    results = reproduce(args.trials, args.seed)
-    table = markdown_table(results, args.trials)
+    seeds = tuple(range(args.seed, args.seed + args.seeds))
+    t0 = time.perf_counter()
+    results = reproduce(args.trials, seeds, ("nominal", *variants), schemes)
+    table = markdown_table(results, args.trials, len(seeds))
     print(table)
+    print(f"({time.perf_counter() - t0:.0f} s)")
     summary = {
-        f"{variant}/{case}": {"proposed_mm": r["proposed_mm"], "simple_mm": r["simple_mm"]}
-        for (variant, case), r in results.items()
+        "/".join(key): {
+            name: [None if not np.isfinite(v) else v for v in cell[name]]
+            for name in ("proposed_mm", "simple_mm")
+        }
+        for key, cell in results.items()
     }
     (out / "table1.json").write_text(json.dumps(summary, indent=1))
     (out / "table1.md").write_text(table + "\n")
     if not args.no_plot:
-        truth = np.asarray(ObjectConfig.scissors().joint_position[:2])
-        for path in plot(results, truth, out):
+        for path in plot(results, true_joint_position(), out):
             print(f"wrote {path}")
     return results
 

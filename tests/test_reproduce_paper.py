@@ -1,0 +1,98 @@
+"""The Table I reproduction: it runs, finds the edge by touch, and does not lean on the truth.
+
+Ground truth (the edge line, the true wrench) is read here only to check the protocol.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from agents import reproduce_paper as rp
+from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
+
+
+@pytest.fixture(scope="module")
+def scene():
+    with rp.make_scene("nominal") as s:
+        yield s
+
+
+def _true_edge(scene):
+    """Edge point, unit edge direction and unit outward direction (away from the pin)."""
+    point, direction = scene.edge_line
+    outward = np.cross(direction, [0.0, 0.0, 1.0])
+    if (point - scene.true_axis[0]) @ outward < 0:
+        outward = -outward
+    return point, direction, outward
+
+
+def test_reduced_run_writes_table1(tmp_path):
+    argv = ["--trials", "1", "--schemes", "paper", "--variants", "noise_x2", "--out", str(tmp_path)]
+    results = rp.main(argv)
+    table = json.loads((tmp_path / "table1.json").read_text())
+    cells = [f"paper/{case}" for case in rp.CASES]
+    assert set(table) == set(cells) | {f"noise_x2/{cell}" for cell in cells}
+    for cell in table.values():
+        assert set(cell) == {"proposed_mm", "simple_mm"}
+        assert len(cell["proposed_mm"]) == len(cell["simple_mm"]) == 1
+    assert (tmp_path / "table1.md").exists()
+    assert (tmp_path / "fig_slides.png").exists() and (tmp_path / "fig_fixed.png").exists()
+    # The paper's finding in miniature: sliding contacts break the simple method only.
+    sliding = results[("paper", "slides")]
+    assert sliding["proposed_mm"][0] < 6.0 < 3 * 6.0 < sliding["simple_mm"][0]
+
+
+@pytest.mark.parametrize("offset", [-0.008, -0.003, 0.005])
+def test_edge_search_finds_the_edge_by_touch(scene, offset):
+    scene.reset(0.3, [0.0, 0.1, 0.1], rp.DOWN)
+    point, direction, outward = _true_edge(scene)
+    start = (point + 0.04 * direction + offset * outward)[:2]
+    # The search is told a direction across the edge 10 degrees off.
+    c, s = math.cos(0.17), math.sin(0.17)
+    told = np.array([c * outward[0] - s * outward[1], s * outward[0] + c * outward[1]])
+    touch, _, presses = rp.find_edge(
+        scene, start, told, rp.NominalLayout(), np.random.default_rng(0)
+    )
+    past = (touch.centre - point) @ outward  # sphere centre past the edge line
+    assert -0.001 < past < 0.002
+    assert abs((touch.point - point) @ outward) < 0.002
+    assert math.degrees(math.acos(abs(touch.edge @ direction))) < 3.0
+    assert touch.readings == rp.MEASURE_READINGS and presses <= 5
+
+
+def test_press_stops_on_the_noisy_reading():
+    # A force bias of 1.5 N along the finger axis makes the reading 1.5 N higher than the
+    # true force: the press must stop on the reading, at a true 3.5 N.
+    sensor = SensorConfig(force_bias=(0.0, 0.0, -1.5))
+    config = ObjectConfig.scissors(holding_torque=rp.HAND_HOLD_TORQUE)
+    with ProbeScene(config, SkinConfig(), sensor) as biased:
+        biased.reset(0.0, [0.06, 0.105, 0.05], rp.DOWN)
+        targets = []
+        step = biased.control_step
+
+        def recording_step(position, orientation):
+            targets.append(np.array(position))
+            return step(position, orientation)
+
+        biased.control_step = recording_step
+        xy = np.array([0.06, 0.105])  # the middle of the grip's top face
+        touch = rp.press(biased, xy, rp.NominalLayout(), np.random.default_rng(0))
+        assert touch.touched
+        assert 5.0 <= np.linalg.norm(touch.wrench[:3]) < 5.3
+        assert 3.4 < np.linalg.norm(biased.true_wrench[:3]) < 3.8
+        # A pure press: every target below the travel height is straight over xy.
+        low = [t for t in targets if t[2] < targets[-1][2] + 0.001]
+        assert np.allclose([t[:2] for t in low], xy, atol=1e-12)
+
+
+def test_proposed_method_does_not_need_the_true_layout():
+    # The operator's nominal layout off by 3 mm and 6 degrees: the search still finds the
+    # edge by touch, and the estimate stays accurate.
+    guess = rp.NominalLayout(hinge=(0.020, 0.102), heading=math.radians(6.0))
+    results = rp.reproduce(trials=2, schemes=("paper",), nominal=guess)
+    for case in rp.CASES:
+        assert max(results[("paper", case)]["proposed_mm"]) < 6.0
+    sliding = results[("paper", "slides")]
+    assert np.mean(sliding["simple_mm"]) > 3 * np.mean(sliding["proposed_mm"])
