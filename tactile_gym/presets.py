@@ -14,7 +14,6 @@ benchmarks). A preset holds only what differs from the defaults in code.
 
 from __future__ import annotations
 
-from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +25,11 @@ KINDS = ("env", "objects", "train", "sweeps")
 
 
 def _root() -> Path:
-    return Path(str(files("tactile_gym.configs")))
+    """The presets' folder: inside the installed package (a wheel), or beside the package in
+    a source checkout (an editable install), whichever holds the package imported."""
+    package = Path(__file__).resolve().parent
+    installed = package / "configs"
+    return installed if installed.is_dir() else package.parent / "configs"
 
 
 def _check_kind(kind: str) -> None:

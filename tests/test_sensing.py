@@ -633,10 +633,11 @@ def test_estimate_contact_noise_defaults_are_the_sensor_configs():
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"force_noise_std": -0.1}, r"force_noise_std must be a finite number >= 0 N, got -0.1"),
-        ({"moment_noise_std": math.inf}, r"moment_noise_std must be a finite number >= 0 N m"),
-        ({"force_bias": (0.0, 1.0)}, "force_bias must be 3 finite numbers"),
-        ({"moment_bias": (0.0, math.nan, 0.0)}, "moment_bias must be 3 finite numbers"),
+        ({"force_noise_std": -0.1}, r"sensor.force_noise_std must be a finite number in \[0, 10\]"),
+        ({"force_noise_std": "0.02"}, r"sensor.force_noise_std must be a number, got '0.02'"),
+        ({"moment_noise_std": math.inf}, r"sensor.moment_noise_std must be a finite number"),
+        ({"force_bias": (0.0, 1.0)}, "sensor.force_bias must be 3 numbers"),
+        ({"moment_bias": (0.0, math.nan, 0.0)}, r"sensor.moment_bias\[1\] must be a finite number"),
     ],
 )
 def test_sensor_config_validation(kwargs, match):

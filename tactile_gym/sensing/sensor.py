@@ -3,17 +3,16 @@
 The one place the sensor-noise defaults are written: the simulator draws its readings with
 them and ``estimate_contact`` predicts its errors with them.
 
-Conventions (DESIGN.md section 4): SI units (newtons, newton-metres); biases in the sensor
-frame (origin at the F/T sensor, z along the finger axis). NumPy only, so real robots can
-reuse it.
+Conventions (``docs/design.md``, "Frames and units"): SI units (newtons, newton-metres);
+biases in the sensor frame (origin at the F/T sensor, z along the finger axis). NumPy only, so
+real robots can reuse it.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-import numpy as np
+from tactile_gym.validation import check_number, check_vector
 
 __all__ = ["SensorConfig"]
 
@@ -39,11 +38,9 @@ class SensorConfig:
     moment_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        for name, unit in (("force_noise_std", "N"), ("moment_noise_std", "N m")):
-            value = getattr(self, name)
-            if not math.isfinite(value) or value < 0.0:
-                raise ValueError(f"{name} must be a finite number >= 0 {unit}, got {value!r}")
-        for name in ("force_bias", "moment_bias"):
-            v = np.asarray(getattr(self, name), dtype=float)
-            if v.shape != (3,) or not np.all(np.isfinite(v)):
-                raise ValueError(f"{name} must be 3 finite numbers, got {getattr(self, name)!r}")
+        check_number("sensor.force_noise_std", self.force_noise_std, 0.0, 10.0)
+        check_number("sensor.moment_noise_std", self.moment_noise_std, 0.0, 1.0)
+        for name, bound in (("force_bias", 100.0), ("moment_bias", 10.0)):
+            object.__setattr__(
+                self, name, check_vector(f"sensor.{name}", getattr(self, name), bound=bound)
+            )
