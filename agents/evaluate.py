@@ -1,7 +1,7 @@
 """Evaluate policies on a tactile_gym env over seeded episodes.
 
     python -m agents.evaluate --policies random scripted --episodes 20
-    python -m agents.evaluate --policies scripted runs/ppo/HingeProbe-v0_s0_.../best_model.zip
+    python -m agents.evaluate --policies scripted runs/ppo/HingeProbe-v1_s0_.../best_model.zip
     python -m agents.evaluate --policies scripted --episodes 1000 --workers 8     # on Ray
 
 A policy is ``random``, ``scripted`` or the path of a stable-baselines3 model saved by
@@ -32,7 +32,7 @@ import yaml
 
 import tactile_gym
 
-from .scripted import ScriptedProbePolicy
+from .scripted import scripted_policy
 from .train import DEFAULT_ENV_ID, KeyValue, make_env, torch_threads, vecnormalize_path
 
 #: Position error reported while there is no estimate, m (the task's E_max).
@@ -40,11 +40,6 @@ NO_ESTIMATE_ERROR = 0.1
 #: The "steps to reach" threshold of the table, m.
 REACH_THRESHOLD = 0.005
 BUILTIN_POLICIES = ("random", "scripted")
-
-
-def scripted_policy(env: gym.Env):
-    """The scripted baseline for ``env``: the one place that picks it."""
-    return ScriptedProbePolicy.for_env(env.unwrapped)
 
 
 class RandomPolicy:
@@ -179,7 +174,7 @@ def model_run(path: Path) -> dict[str, Any]:
 
 def policy_labels(names: list[str]) -> list[str]:
     """Unique labels: a built-in policy's name, or a model's run folder and file stem
-    (``HingeProbe-v0_s0_.../final_model``), with more parent folders where two would clash.
+    (``HingeProbe-v1_s0_.../final_model``), with more parent folders where two would clash.
 
     Raises:
         ValueError: the same policy is listed twice.

@@ -1,39 +1,28 @@
-"""Scripted baseline: the paper's probing protocol, adapted to what the physics allows.
+"""Scripted baselines for every v1 id: the paper's probing protocol, with the fingertip turning
+the link itself.
 
-The paper presses the fingertip on the free link's edge at 5 N, measures, lifts, turns the
-link by 30 degrees by hand, and repeats. In simulation the fingertip must turn the link
-itself, and the physics sets the rules (DESIGN.md 2.1-2.2, confirmed in ``ProbeScene``):
+The paper presses the edge at 5 N, reads, lifts, has the grip turned 30 deg by hand, and
+repeats. Here the fingertip turns the link: pressing on the face near the edge and dragging
+across it toward the face's interior, the sticking skin carries the link round its hinge
+(``tactile_gym.envs.skills.Drag``). One cycle is:
 
-* a plain press says nothing about the edge;
-* a sticking shear tilts the force, and the wrench then gives the direction perpendicular
-  to the *shear* (a shear 5 deg off the across-edge direction gives an edge about 10 deg
-  off), so a shear only measures the edge well when it is made across the edge, and not
-  straight after a slide along it (the skin is still loaded along the edge);
-* a slide along the edge keeps the contact on the edge whatever the slide's own direction,
-  so a line through the contact points measures the edge independently (the env's ``trace``
-  measurements);
-* while the link is being pushed round, the contact slides along the edge and the wrench
-  gives a confidently wrong edge; the env's gate rejects such moving contacts.
+1. ``probe``: a pure press along the face normal to 5 N, held still so the gate averages the
+   readings into one measurement. If the gate refuses it because the edge barely truncates
+   the contact patch (a small tilt: the fingertip is over the face) the next probe moves
+   outward, toward the edge, by what the tilt says is missing (about 4 deg per mm near the
+   edge, aiming at 10 deg); if the press found nothing, it searches around.
+2. ``turn``: drag across the edge by a distance that should turn the link by ``step_angle``,
+   from the lever estimated from the turns measured so far.
 
-Each stop is therefore:
+Once the link stops following (two drags in a row that turn it less than ``stalled_angle``: a
+joint limit), the policy keeps probing at the last angle.
+The policy reads only observations; it never reads the simulator.
 
-1. ``approach``: move straight down until the skin touches;
-2. ``press``: advance to ``press_force``;
-3. ``slide``: slide ``slide_distance`` along the edge while holding the force (alternately
-   toward and away from the hinge), and fit a line through the contact points: the edge as
-   this stop sees it, and the env's ``trace`` measurements;
-4. move round to the link's side (``goto``) and ``push`` it round by about ``stop_angle``,
-   steering the push with the turn; the push distance comes from the lever arm estimated
-   from the turns measured so far. Where the link holds, the push is a sticking press
-   across the edge, which gives wrench measurements;
-5. move back above the edge where the push left it, and start the next stop.
+``PrimitiveProber`` chooses primitives (the action of the ``...Primitive-v1`` ids);
+``SkillProber`` runs the same choices through the same skills step by step for the 6-D ids.
+``scripted_policy(env)`` returns the right one for any v1 env.
 
-The policy reads only the observation (wrench, fingertip pose, contact estimate) and the
-documented layout of ``HingeProbe-v0``: the fingertip starts a few millimetres above the free
-link's edge, pointing at it, and the free link points from its hinge toward world +x
-(within +-20 deg). It never reads the true axis or the simulator.
-
-    python -m agents.scripted --episodes 5
+    python -m agents.scripted --env tactile_gym/HingeProbe-v1 --episodes 5
 """
 
 from __future__ import annotations
@@ -43,262 +32,187 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile_gym.sensing import edge_from_trace
-from tactile_gym.spatial import quaternion_to_matrix, rotvec_to_matrix
+from tactile_gym.envs.skills import (
+    PrimitiveScales,
+    ProbeFrame,
+    TouchReading,
+    primitive_skills,
+)
 
-__all__ = ["ScriptedConfig", "ScriptedProbePolicy"]
-
-Z = np.array([0.0, 0.0, 1.0])
+__all__ = ["PrimitiveProber", "ProberConfig", "SkillProber", "scripted_policy"]
 
 
 @dataclass(frozen=True)
-class ScriptedConfig:
+class ProberConfig:
     """Parameters of the scripted protocol (SI units).
 
     Attributes:
-        press_force: force of a measuring press, N (the paper's 5 N).
-        contact_force: force that ends the approach, N.
-        push_force: force above which the push waits for the link to move, N. A push that
-            waits is a sticking press across the edge, which the env measures; a push that
-            turns the link is not measured (the contact moves).
-        stall_steps: control steps a push may wait before it is cut short.
-        force_gain: advance per newton of force error, m/N.
-        slide_distance: slide along the edge at each stop, m.
-        slide_step: slide per control step, m.
-        stop_angle: turn of the link between stops, rad (the paper's 30 deg).
-        n_stops: number of measuring stops.
-        nominal_lever: assumed distance from the hinge to the pushed point before a turn has
+        target_tilt: force tilt aimed at by moving across the edge, rad (the patch is then
+            cut well by the edge: the centre is about 0.5 mm beyond it).
+        tilt_per_metre: how the tilt grows as the centre moves across the edge, rad/m.
+        min_tilt: tilt below which the next probe moves outward, rad.
+        step_angle: link turn aimed at between measurements, rad.
+        nominal_lever: assumed distance from the hinge to the fingertip before a turn has
             been measured, m.
-        lift_height: rise above the edge when moving round the link, m.
-        clearance: gap kept between the skin and the link when moving round it, m.
-        table_clearance: least height of the skin above the table, m.
-        hinge_direction: horizontal direction from the free link toward its hinge in the
-            documented layout (world).
+        retries: failed probes in a row after which the policy turns anyway.
+        stalled_angle: a turn smaller than this counts as the link not following, rad.
     """
 
-    press_force: float = 5.0
-    contact_force: float = 1.0
-    push_force: float = 6.5
-    stall_steps: int = 6
-    force_gain: float = 0.0003
-    slide_distance: float = 0.012
-    slide_step: float = 0.001
-    stop_angle: float = float(np.deg2rad(30.0))
-    n_stops: int = 4
+    target_tilt: float = float(np.deg2rad(10.0))
+    tilt_per_metre: float = float(np.deg2rad(4.0)) / 0.001
+    min_tilt: float = float(np.deg2rad(7.0))
+    step_angle: float = float(np.deg2rad(16.0))
     nominal_lever: float = 0.055
-    lift_height: float = 0.004
-    clearance: float = 0.002
-    table_clearance: float = 0.0015
-    hinge_direction: tuple[float, float, float] = (-1.0, 0.0, 0.0)
+    retries: int = 3
+    stalled_angle: float = float(np.deg2rad(2.0))
 
 
-class ScriptedProbePolicy:
-    """A state machine from observations to normalised actions.
+class PrimitiveProber:
+    """Chooses probing primitives from observations (module docstring).
+
+    Args:
+        scales: what an action of 1 means for the primitives (the env's).
+        config: protocol parameters.
+    """
+
+    def __init__(self, scales: PrimitiveScales, config: ProberConfig = ProberConfig()) -> None:  # noqa: B008
+        self.scales = scales
+        self.config = config
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new episode."""
+        self._last = "turn"
+        self._count = 0
+        self._failures = 0
+        self._edges: list[np.ndarray] = []  # edge of each accepted probe
+        self._drags: list[float] = []  # drag before each later probe, m
+        self._drag = 0.0
+        self._stalls = 0
+
+    def act(self, obs: dict) -> np.ndarray:
+        """The next primitive action (3,) for a dict observation of a v1 env."""
+        reading = TouchReading.from_obs(obs)
+        measured = reading.measurements > self._count
+        self._count = reading.measurements
+        if self._last == "probe":
+            if measured:
+                self._learn_turn(np.asarray(obs["last_measurement"][3:6], dtype=float))
+                self._failures = 0
+                return self._turn()
+            self._failures += 1
+            if self._failures > self.config.retries:
+                self._failures = 0
+                return self._turn()
+            return self._probe(self._correction(obs, reading))
+        return self._probe(0.0)
+
+    # ------------------------------------------------------------------ decisions
+    def _correction(self, obs: dict, reading: TouchReading) -> float:
+        """Across offset (m, positive beyond the edge) for the next probe after a refusal."""
+        cfg = self.config
+        if not reading.touching:
+            # Pressed into nothing (beyond the edge, or beside the link): come back inward.
+            return -0.002
+        tilt = float(obs["contact"][11])
+        if tilt < cfg.min_tilt:
+            return float(np.clip((cfg.target_tilt - tilt) / cfg.tilt_per_metre, 0.0, 0.003))
+        return 0.0
+
+    def _learn_turn(self, edge: np.ndarray) -> None:
+        """Measure the turn the last drag made; two stalls in a row mean a joint limit."""
+        if self._edges and self._drag:
+            turn = float(np.arccos(np.clip(edge @ self._edges[-1], -1.0, 1.0)))
+            if turn < self.config.stalled_angle:
+                self._stalls += 1
+            else:
+                self._stalls = 0
+                self._drags.append(self._drag / turn)
+        self._edges.append(edge)
+
+    def _lever(self) -> float:
+        if not self._drags:
+            return self.config.nominal_lever
+        return float(np.clip(np.median(self._drags), 0.02, 0.15))
+
+    def _probe(self, across: float) -> np.ndarray:
+        self._last = "probe"
+        return np.array([-1.0, across / self.scales.probe_across, 0.0])
+
+    def _turn(self) -> np.ndarray:
+        self._last = "turn"
+        if self._stalls >= 2 or not self._edges:
+            self._drag = 0.0
+            return self._probe(0.0)
+        self._drag = min(self._lever() * self.config.step_angle, self.scales.turn_distance)
+        return np.array([1.0, self._drag / self.scales.turn_distance, 0.0])
+
+
+class SkillProber:
+    """``PrimitiveProber``'s choices carried out step by step through the skills (6-D ids).
 
     Args:
         max_translation: the env's translation for an action of 1, m.
-        max_rotation: the env's rotation for an action of 1, rad.
-        tip_center: hemisphere centre in the sensor frame, m.
-        outer_radius: outer skin radius, m.
+        dwell: still steps of a probe (the gate's dwell plus one).
+        scales: primitive scales (the primitive env's defaults).
         config: protocol parameters.
     """
 
     def __init__(
         self,
         max_translation: float,
-        max_rotation: float,
-        tip_center: np.ndarray,
-        outer_radius: float,
-        config: ScriptedConfig = ScriptedConfig(),  # noqa: B008 - frozen dataclass
+        dwell: int,
+        scales: PrimitiveScales = PrimitiveScales(),  # noqa: B008
+        config: ProberConfig = ProberConfig(),  # noqa: B008
     ) -> None:
         self.max_translation = float(max_translation)
-        self.max_rotation = float(max_rotation)
-        self.tip_center = np.asarray(tip_center, dtype=float)
-        self.outer_radius = float(outer_radius)
-        self.config = config
+        self.dwell = int(dwell)
+        self.chooser = PrimitiveProber(scales, config)
         self.reset()
-
-    @classmethod
-    def for_env(cls, env, config: ScriptedConfig = ScriptedConfig()):  # noqa: B008
-        """A policy scaled to a ``HingeProbeEnv`` (pass ``env.unwrapped``)."""
-        return cls(
-            env.config.max_translation,
-            env.config.max_rotation,
-            env.geometry.sphere_center,
-            env.geometry.outer_radius,
-            config,
-        )
 
     def reset(self) -> None:
         """Start a new episode."""
-        self.state = "approach"
-        self.stops_done = 0
-        self._heading: np.ndarray | None = None  # horizontal, across the edge, into the link
-        self._tilt = 0.0  # finger axis from straight down, rad
-        self._edges: list[np.ndarray] = []  # edge of each stop, horizontal, away from hinge
-        self._pushes: list[float] = []  # push distance before each later stop, m
-        self._trace: list[np.ndarray] = []
-        self._waypoints: list[np.ndarray] = []
-        self._after_waypoints = "approach"
-        self._counter = 0
-        self._rim = np.zeros(3)
-        self._pushed = 0.0
-        self._push_goal = 0.0
-        self._push_heading = np.zeros(3)
-        self._tip = np.zeros(3)
+        self.chooser.reset()
+        self._frame = ProbeFrame()
+        self._skills: list = []
 
-    # ------------------------------------------------------------------ main loop
     def get_action(self, obs: dict) -> np.ndarray:
-        """The normalised action for a dict observation of ``HingeProbeEnv``."""
-        cfg = self.config
-        pose = np.asarray(obs["fingertip_pose"], dtype=float)
-        rotation = quaternion_to_matrix(pose[3:7])
-        axis = rotation[:, 2]
-        tip = pose[:3] + rotation @ self.tip_center
-        force = float(np.linalg.norm(obs["wrench"][:3]))
-        contact = np.asarray(obs["contact"], dtype=float)
-        touching = contact[0] > 0.5
-        self._tip = tip
-        if self._heading is None:
-            self._heading = _horizontal(axis)
-            self._tilt = float(np.arccos(np.clip(-axis @ Z, -1.0, 1.0)))
-        h = self._heading
-        move = np.zeros(3)
-        rotvec = np.zeros(3)
-
-        if self.state == "approach":
-            move = -Z * 0.001
-            if force > cfg.contact_force:
-                self.state = "press"
-        elif self.state == "press":
-            move = -Z * self._force_step(force)
-            if abs(force - cfg.press_force) < 0.5:
-                self.state, self._counter, self._trace = "slide", 0, []
-        elif self.state == "slide":
-            move = self._slide_direction() * cfg.slide_step - Z * self._force_step(force)
-            if touching:
-                self._trace.append(contact[1:4].copy())
-                self._rim = contact[1:4].copy()
-            self._counter += 1
-            if self._counter * cfg.slide_step >= cfg.slide_distance:
-                self._finish_slide()
-                self._finish_stop()
-        elif self.state == "goto":
-            move, done = self._follow_waypoints(tip)
-            turn = _signed_angle(_horizontal(axis), h)
-            rotvec = Z * float(np.clip(turn, -self.max_rotation, self.max_rotation))
-            if done and abs(turn) < np.deg2rad(0.5):
-                self.state = self._after_waypoints
-        elif self.state == "push":
-            move = self._push_step(force, touching, contact, tip)
-
-        if self.state != "done":
-            low = self.outer_radius + cfg.table_clearance
-            if tip[2] + move[2] < low:
-                move[2] = low - tip[2]
-        action = np.r_[move / self.max_translation, rotvec / self.max_rotation]
-        return np.clip(action, -1.0, 1.0).astype(np.float32)
-
-    # ------------------------------------------------------------------ phases
-    def _force_step(self, force: float) -> float:
-        error = self.config.press_force - force
-        return float(np.clip(self.config.force_gain * error, -1e-3, 1e-3))
-
-    def _slide_direction(self) -> np.ndarray:
-        """Along the edge, alternately toward and away from the hinge (stays mid-link)."""
-        along = np.cross(Z, self._heading)
-        toward_hinge = -self._edges[-1] if self._edges else np.asarray(self.config.hinge_direction)
-        if self.stops_done % 2:
-            toward_hinge = -toward_hinge
-        return along if along @ toward_hinge >= 0 else -along
-
-    def _finish_slide(self) -> None:
-        """Fit the edge through the slide's contact points and face across it."""
-        if len(self._trace) < 3:
-            return
-        direction, _ = edge_from_trace(np.asarray(self._trace), point_std=2e-4)
-        if not np.all(np.isfinite(direction)):
-            return
-        edge = _horizontal(direction)
-        across = np.cross(Z, edge)
-        self._heading = across if across @ self._heading >= 0 else -across
-        away = -np.asarray(self.config.hinge_direction) if not self._edges else self._edges[-1]
-        self._edges.append(edge if edge @ away >= 0 else -edge)
-
-    def _finish_stop(self) -> None:
-        cfg = self.config
-        self.stops_done += 1
-        if self.stops_done >= cfg.n_stops:
-            self.state = "done"
-            return
-        self._push_goal = self._lever() * cfg.stop_angle
-        self._push_heading = self._heading
-        h = self._heading
-        low = self.outer_radius + cfg.table_clearance
-        above = self._tip + Z * cfg.lift_height
-        outside = np.r_[(self._rim - h * (self.outer_radius + cfg.clearance))[:2], above[2]]
-        self._waypoints = [above, outside, np.r_[outside[:2], low]]
-        self._after_waypoints = "push"
-        self.state, self._pushed, self._counter = "goto", 0.0, 0
-
-    def _push_step(self, force: float, touching: bool, contact: np.ndarray, tip: np.ndarray):
-        cfg = self.config
-        speed = self.max_translation if force < 0.3 else (0.0015 if force < cfg.push_force else 0.0)
-        self._counter = self._counter + 1 if speed == 0.0 else 0
-        if force >= 0.3:
-            self._pushed += speed
-            if touching:
-                self._rim = contact[1:4].copy()
-        heading = self._turned_heading(self._pushed)
-        stalled = self._counter >= cfg.stall_steps
-        missed = (self._rim - tip) @ heading < -0.01
-        if stalled or missed or self._pushed >= self._push_goal:
-            self._pushes.append(self._pushed)
-            self._heading = heading
-            above = self._rim + Z * (self.outer_radius + cfg.lift_height)
-            finger = -np.cos(self._tilt) * Z + np.sin(self._tilt) * heading
-            ready = self._rim - finger * (self.outer_radius + 0.003)
-            self._waypoints = [tip - heading * 0.003, above - heading * 0.003, ready]
-            self._after_waypoints = "approach"
-            self.state = "goto"
-        return heading * speed
-
-    def _follow_waypoints(self, tip: np.ndarray) -> tuple[np.ndarray, bool]:
-        while self._waypoints and np.linalg.norm(self._waypoints[0] - tip) < 3e-4:
-            self._waypoints.pop(0)
-        if not self._waypoints:
-            return np.zeros(3), True
-        error = self._waypoints[0] - tip
-        return error * min(1.0, self.max_translation / np.linalg.norm(error)), False
-
-    # ------------------------------------------------------------------ geometry
-    def _lever(self) -> float:
-        """Distance from the hinge to the pushed point, from the turns measured so far."""
-        turns = [np.arccos(np.clip(a @ b, -1.0, 1.0)) for a, b in zip(self._edges, self._edges[1:])]
-        levers = [p / t for p, t in zip(self._pushes, turns) if t > np.deg2rad(3.0)]
-        if not levers:
-            return self.config.nominal_lever
-        return float(np.clip(np.median(levers), 0.02, 0.12))
-
-    def _turned_heading(self, pushed: float) -> np.ndarray:
-        """The push heading once a push of ``pushed`` metres has turned the link."""
-        h = self._push_heading
-        if not self._edges:
-            return h
-        # Pushing along h at a point on the link turns it so that the point moves along h.
-        sign = np.sign(np.cross(self._edges[-1], h) @ Z) or 1.0
-        return rotvec_to_matrix(Z * sign * pushed / self._lever()) @ h
+        """The next 6-D action for a dict observation."""
+        reading = TouchReading.from_obs(obs)
+        while True:
+            while self._skills:
+                action = self._skills[0].act(reading)
+                if action is not None:
+                    return action.astype(np.float32)
+                self._skills.pop(0)
+            _, self._skills = primitive_skills(
+                self.chooser.act(obs),
+                self._frame,
+                self.max_translation,
+                self.dwell,
+                self.chooser.scales,
+            )
 
 
-def _signed_angle(a: np.ndarray, b: np.ndarray) -> float:
-    """Angle from horizontal unit vector a to b about world z, rad."""
-    return float(np.arctan2(np.cross(a, b) @ Z, a @ b))
+class _PrimitivePolicy:
+    """``PrimitiveProber`` with the ``get_action``/``reset`` interface of the other policies."""
+
+    def __init__(self, scales: PrimitiveScales) -> None:
+        self.chooser = PrimitiveProber(scales)
+
+    def reset(self) -> None:
+        self.chooser.reset()
+
+    def get_action(self, obs: dict) -> np.ndarray:
+        return self.chooser.act(obs).astype(np.float32)
 
 
-def _horizontal(v: np.ndarray) -> np.ndarray:
-    v = np.asarray(v, dtype=float)
-    v = v - (v @ Z) * Z
-    return v / max(np.linalg.norm(v), 1e-12)
+def scripted_policy(env):
+    """The scripted baseline of a v1 env (any id, either action mode); pass ``gym.make(...)``."""
+    base = env.unwrapped
+    if env.action_space.shape == (3,):
+        return _PrimitivePolicy(base.scales)
+    return SkillProber(base.config.max_translation, base.gate.config.dwell + 1)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -307,12 +221,12 @@ def main(argv: list[str] | None = None) -> None:
     import tactile_gym  # noqa: F401 - registers the envs
 
     parser = argparse.ArgumentParser(description="Run the scripted baseline and print errors.")
-    parser.add_argument("--env", default="tactile_gym/HingeProbe-v0")
+    parser.add_argument("--env", default="tactile_gym/HingeProbe-v1")
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     env = gym.make(args.env)
-    policy = ScriptedProbePolicy.for_env(env.unwrapped)
+    policy = scripted_policy(env)
     for k in range(args.episodes):
         obs, info = env.reset(seed=args.seed + k)
         policy.reset()
@@ -323,8 +237,7 @@ def main(argv: list[str] | None = None) -> None:
         print(
             f"seed {args.seed + k}: position error {info['position_error'] * 1e3:.1f} mm, "
             f"angle error {np.degrees(info['angle_error']):.2f} deg, "
-            f"{info['n_measurements']} measurements, joint angle "
-            f"{np.degrees(info['joint_angle']):.0f} deg, success {info['is_success']}"
+            f"{info['n_measurements']} measurements, success {info['is_success']}"
         )
     env.close()
 

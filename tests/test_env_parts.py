@@ -1,4 +1,4 @@
-"""The env's parts in isolation: reward task, measurement gate, controller, start scenarios."""
+"""Parts of the env on their own: controller, reset scenarios, prior, skills, plotting."""
 
 from __future__ import annotations
 
@@ -9,133 +9,10 @@ from scipy.spatial.transform import Rotation
 
 import tactile_gym  # noqa: F401 - registers the envs
 from tactile_gym.envs.controller import DeltaPoseController
-from tactile_gym.envs.measurement import GateConfig, MeasurementGate
-from tactile_gym.envs.scenarios import ScenarioConfig, probed_edge, sample_scenario
-from tactile_gym.envs.task import AxisEstimationTask, TaskConfig
+from tactile_gym.envs.prior import prior_from_samples
+from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, probed_edge, sample_scenario
 from tactile_gym.sensing import FingertipGeometry
-from tactile_gym.sim import ProbeScene
-from tactile_gym.sim.config import FAMILIES
-
-# --------------------------------------------------------------------------- task
-
-
-def test_error_reduction_telescopes_to_total_reduction():
-    cfg = TaskConfig()
-    task = AxisEstimationTask(cfg)
-    task.initialize_episode()
-    errors = [(np.inf, np.pi / 2), (0.08, 0.1), (0.03, 0.02), (0.05, 0.0), (0.004, 0.001)]
-    total = sum(
-        task.get_reward(p, a, max_force=0.0, action=np.zeros(6))[1]["reward_error_reduction"]
-        for p, a in errors
-    )
-    final = errors[-1][0] + cfg.error_angle_scale * errors[-1][1]
-    assert total == pytest.approx((cfg.error_cap - final) / cfg.error_scale)
-
-
-def test_penalties_and_cap():
-    cfg = TaskConfig(force_limit=8.0, force_penalty=0.1, action_cost=0.001)
-    task = AxisEstimationTask(cfg)
-    reward, terms = task.get_reward(0.5, 0.0, max_force=12.0, action=np.ones(6))
-    assert terms["reward_error_reduction"] == 0.0  # 0.5 m is capped at E_max, as is the start
-    assert terms["reward_force_penalty"] == pytest.approx(-0.1 * 4.0 / 8.0)
-    assert terms["reward_action_cost"] == pytest.approx(-0.006)
-    assert reward == pytest.approx(sum(terms.values()))
-    assert task.is_success(0.0019, np.deg2rad(1.9))
-    assert not task.is_success(0.0021, 0.0)
-    assert not task.is_success(0.001, np.deg2rad(2.1))
-
-
-# --------------------------------------------------------------------------- gate
-
-EDGE = np.array([1.0, 0.0, 0.0])
-DOWN = np.array([0.0, 0.0, -5.0])
-
-
-def _gate(**kw) -> MeasurementGate:
-    return MeasurementGate(GateConfig(**kw))
-
-
-def test_gate_accepts_a_fresh_tilted_press_once():
-    gate = _gate(trace_length=0.0)
-    p = np.zeros(3)
-    assert gate.offer(True, DOWN, p, EDGE, 0.02)[0].source == "wrench"
-    # The same contact again: nothing new.
-    assert gate.offer(True, DOWN, p, EDGE, 0.02) == []
-    # 1 mm further along: new.
-    assert len(gate.offer(True, DOWN, p + [0.001, 0, 0], EDGE, 0.02)) == 1
-
-
-@pytest.mark.parametrize(
-    "valid, force, edge, std",
-    [
-        (False, DOWN, EDGE, 0.02),  # no contact
-        (True, np.array([0, 0, -2.0]), EDGE, 0.02),  # force below the band
-        (True, np.array([0, 0, -9.0]), EDGE, 0.02),  # force above the band
-        (True, DOWN, np.full(3, np.nan), np.pi / 2),  # edge unobservable
-        (True, DOWN, EDGE, np.deg2rad(8.0)),  # edge too uncertain
-    ],
-)
-def test_gate_rejects(valid, force, edge, std):
-    assert _gate(trace_length=0.0).offer(valid, force, np.zeros(3), edge, std) == []
-
-
-def test_gate_rejects_wrench_edges_once_the_contact_has_slid():
-    gate = _gate(trace_length=0.0)
-    accepted = [gate.offer(True, DOWN, np.array([0.0005 * k, 0, 0]), EDGE, 0.02) for k in range(8)]
-    # Accepted while the contact travelled at most 1.5 mm, never after.
-    assert [bool(a) for a in accepted[:4]] == [True, False, True, False]
-    assert not any(accepted[4:])
-    # Lifting off makes the next contact fresh again.
-    gate.offer(False, np.zeros(3), np.zeros(3), EDGE, np.pi)
-    assert gate.offer(True, DOWN, np.array([0.01, 0, 0]), EDGE, 0.02)
-
-
-def test_gate_signs_edges_by_continuity():
-    gate = _gate(trace_length=0.0)
-    first = gate.offer(True, DOWN, np.zeros(3), EDGE, 0.02)[0]
-    gate.offer(False, np.zeros(3), np.zeros(3), EDGE, np.pi)
-    turned = np.array([-np.cos(0.3), -np.sin(0.3), 0.0])
-    second = gate.offer(True, DOWN, np.array([0.0, 0.01, 0.0]), turned, 0.02)[0]
-    assert first.edge @ second.edge > 0
-
-
-def _slide(gate, force_along: float, rng) -> list:
-    """A 6 mm slide along x with a force whose component along the motion is given."""
-    accepted = []
-    for k in range(13):
-        point = np.array([0.0005 * k, rng.normal(0, 5e-5), 0.0])
-        force = np.array([-force_along, 0.0, -5.0])
-        accepted += gate.offer(True, force, point, np.full(3, np.nan), np.pi / 2)
-    return accepted
-
-
-def test_gate_trace_from_a_slide_along_the_edge():
-    rng = np.random.default_rng(0)
-    traces = [m for m in _slide(_gate(), 1.5, rng) if m.source == "trace"]
-    assert traces
-    assert abs(traces[0].edge @ EDGE) > np.cos(np.deg2rad(3.0))
-
-
-def test_gate_rejects_a_trace_whose_force_acts_along_the_motion():
-    # A push that turns the link: the contact moves along the force.
-    rng = np.random.default_rng(0)
-    assert _slide(_gate(), 6.0, rng) == []
-
-
-@pytest.mark.parametrize(
-    "kw",
-    [
-        {"force_band": (5.0, 1.0)},
-        {"max_edge_std": 0.0},
-        {"trace_length": -1.0},
-        {"trace_max_force_ratio": 1.5},
-        {"max_contact_travel": 0.0},
-    ],
-)
-def test_gate_config_validation(kw):
-    with pytest.raises(ValueError):
-        GateConfig(**kw)
-
+from tactile_gym.spatial import quaternion_to_matrix
 
 # --------------------------------------------------------------------------- controller
 
@@ -147,7 +24,7 @@ def test_controller_scales_translation_and_rotates_about_the_tip():
     orientation = Rotation.from_euler("x", 170, degrees=True).as_quat()
     new_position, new_orientation = ctrl.target(np.r_[1.0, 0, 0, 0, 0, 0], position, orientation)
     np.testing.assert_allclose(new_position - position, [0.002, 0, 0], atol=1e-12)
-    np.testing.assert_allclose(new_orientation, orientation, atol=1e-12)
+    assert abs(new_orientation @ orientation) == pytest.approx(1.0, abs=1e-12)
 
     new_position, new_orientation = ctrl.target(np.r_[0, 0, 0, 0, 1.0, 0], position, orientation)
     tip_before = position + Rotation.from_quat(orientation).apply(pivot)
@@ -161,27 +38,42 @@ def test_controller_scales_translation_and_rotates_about_the_tip():
 
 
 @pytest.mark.parametrize("family", FAMILIES)
-def test_start_pose_is_free_and_points_at_the_edge(family):
+def test_start_is_above_the_face_near_the_edge(family):
     geometry = FingertipGeometry()
+    cfg = ScenarioConfig()
     rng = np.random.default_rng(5)
-    scenario = sample_scenario(rng, (family,), ScenarioConfig(), geometry)
-    scene = ProbeScene(scenario.object_config)
-    try:
-        scene.reset(
-            scenario.joint_angle, scenario.fingertip_position, scenario.fingertip_orientation
-        )
-        assert np.linalg.norm(scene.true_wrench[:3]) == 0.0
-        origin, direction, _, _ = probed_edge(scenario.object_config, scenario.joint_angle)
-        edge_origin, edge_direction = scene.edge_line
-        assert abs(direction @ edge_direction) == pytest.approx(1.0)
-        # The finger axis passes within a millimetre of the edge line.
-        tip = scene.sensor_to_world_point(geometry.sphere_center)
-        axis = scene.sensor_to_world_vector(np.array([0.0, 0.0, 1.0]))
-        gap = tip - edge_origin
-        normal = np.cross(axis, edge_direction)
-        assert abs(gap @ normal) / np.linalg.norm(normal) < 1e-3
-    finally:
-        scene.close()
+    for _ in range(20):
+        s = sample_scenario(rng, (family,), cfg, geometry)
+        origin, direction, side, top = probed_edge(s.object_config, s.joint_angle)
+        if side[2] > top[2]:
+            top, side = side, top
+        rotation = quaternion_to_matrix(s.fingertip_orientation)
+        centre = s.fingertip_position + rotation @ geometry.sphere_center
+        gap = (centre - origin) @ top - geometry.outer_radius
+        across = (centre - origin) @ side
+        lo, hi = cfg.start_height_range
+        assert lo - 1e-9 <= gap <= hi + 1e-9
+        assert cfg.start_across_range[0] - 1e-9 <= across <= cfg.start_across_range[1] + 1e-9
+        lean = np.degrees(np.arccos(np.clip(-(rotation[:, 2] @ top), -1, 1)))
+        assert lean <= np.degrees(cfg.lean_range[1]) + 1e-6
+
+
+def test_the_start_pose_does_not_encode_the_edge_direction():
+    """The finger leans in a uniformly random azimuth: its axis says nothing about the edge
+    (in v0 it leaned exactly toward the side face's normal, giving the edge to 1e-6 deg)."""
+    geometry = FingertipGeometry()
+    rng = np.random.default_rng(0)
+    offsets = []
+    for _ in range(400):
+        s = sample_scenario(rng, ("scissors",), ScenarioConfig(), geometry)
+        _, direction, _, top = probed_edge(s.object_config, s.joint_angle)
+        axis = quaternion_to_matrix(s.fingertip_orientation)[:, 2]
+        lean = axis - (axis @ top) * top
+        if np.linalg.norm(lean) > 1e-3:
+            offsets.append(np.arctan2(np.cross(direction, lean) @ top, direction @ lean))
+    # Azimuths relative to the edge are uniform: each quarter holds about a quarter.
+    counts = np.histogram(offsets, bins=4, range=(-np.pi, np.pi))[0]
+    assert counts.min() > 0.18 * len(offsets)
 
 
 def test_scenarios_follow_the_generator():
@@ -191,6 +83,7 @@ def test_scenarios_follow_the_generator():
     b = sample_scenario(np.random.default_rng(3), FAMILIES, cfg, geometry)
     c = sample_scenario(np.random.default_rng(4), FAMILIES, cfg, geometry)
     assert a.object_config == b.object_config and a.joint_angle == b.joint_angle
+    np.testing.assert_array_equal(a.fingertip_position, b.fingertip_position)
     assert (a.object_config, a.joint_angle) != (c.object_config, c.joint_angle)
 
 
@@ -199,13 +92,43 @@ def test_scenarios_follow_the_generator():
     [
         {"joint_angle_range": (1.0, 0.0)},
         {"start_along_range": (0.5, 1.5)},
-        {"approach_tilt": 2.0},
-        {"holding_torque": -0.1},
+        {"lean_range": (0.0, 2.0)},
+        {"position_jitter": 1000.0},
+        {"start_height_range": "far"},
     ],
 )
 def test_scenario_config_validation(kw):
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="scenario"):
         ScenarioConfig(**kw)
+
+
+# --------------------------------------------------------------------------- prior
+
+
+def test_prior_summarises_the_reset_distribution():
+    rng = np.random.default_rng(1)
+    pins = rng.normal([0.017, 0.105, 0.004], 0.005, size=(4000, 3))
+    tilt = rng.normal(0.0, 0.1, size=(4000, 2))
+    dirs = np.column_stack([tilt, np.ones(4000)]) * rng.choice([-1, 1], (4000, 1))
+    prior = prior_from_samples(pins, dirs)
+    np.testing.assert_allclose(prior.pin, [0.017, 0.105, 0.004], atol=3e-4)
+    np.testing.assert_allclose(np.diag(prior.pin_cov), 0.005**2, rtol=0.1)
+    np.testing.assert_allclose(prior.direction, [0, 0, 1], atol=0.01)
+    assert prior.angle_std == pytest.approx(0.1 * np.sqrt(2), rel=0.1)
+    estimate = prior.estimate()
+    assert estimate.position_std == pytest.approx(0.005 * np.sqrt(2), rel=0.1)
+
+
+def test_env_starts_from_its_prior():
+    env = gym.make("tactile_gym/HingeProbe-v1")
+    obs, info = env.reset(seed=0)
+    u = env.unwrapped
+    assert u.axis_estimate.method == "prior"
+    np.testing.assert_allclose(obs["estimate"][:3], u.axis_estimate.point, atol=1e-6)
+    # The prior's spread is the reset's: the hinge moves +-10 mm in x and y.
+    assert 0.005 < obs["estimate"][6] < 0.012
+    assert np.isfinite(info["position_error"]) and info["position_error"] < 0.02
+    env.close()
 
 
 # --------------------------------------------------------------------------- plotting
@@ -214,18 +137,19 @@ def test_scenario_config_validation(kw):
 def test_plot_top_view(tmp_path):
     matplotlib = pytest.importorskip("matplotlib")
     matplotlib.use("Agg")
-    from agents.scripted import ScriptedProbePolicy
+    from agents.scripted import scripted_policy
     from tactile_gym.envs.plotting import plot_top_view
 
-    env = gym.make("tactile_gym/HingeProbe-v0")
-    policy = ScriptedProbePolicy.for_env(env.unwrapped)
+    env = gym.make("tactile_gym/HingeProbe-v1", max_steps=120)
+    policy = scripted_policy(env)
     obs, _ = env.reset(seed=1000)
-    for _ in range(160):
-        obs, *_ = env.step(policy.get_action(obs))
+    done = False
+    while not done:
+        obs, _, terminated, truncated, _ = env.step(policy.get_action(obs))
+        done = terminated or truncated
     ax = plot_top_view(env.unwrapped)
     ax.figure.savefig(tmp_path / "top.png")
     assert (tmp_path / "top.png").stat().st_size > 0
-    # Measurements and the estimate were drawn, not only the link and the truth.
     assert len(env.unwrapped.measurements) >= 3
     assert len(ax.lines) >= 3 + len(env.unwrapped.measurements)
     env.close()

@@ -11,6 +11,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import tactile_gym
 from tactile_gym import ENV_IDS
+from tactile_gym.envs.hinge_probe_v1 import OBSERVATION_LAYOUT
 
 N_STEPS = 15
 
@@ -36,10 +37,24 @@ def _flat(obs) -> np.ndarray:
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_gymnasium_check_env(env_id):
+def test_gymnasium_check_env(env_id, monkeypatch):
+    # Gymnasium's default check renders every declared mode. Without a display the env does
+    # not declare "human" (it would open PyBullet's GUI and kill the process), so the check
+    # passes headless; with one it would open the GUI, which CI never has.
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     env = gym.make(env_id).unwrapped
-    gym_check_env(env, skip_render_check=True)
+    assert "human" not in env.metadata["render_modes"]
+    gym_check_env(env)
     env.close()
+
+
+def test_human_render_without_a_display_is_a_clear_error(monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    with pytest.raises(RuntimeError, match="needs a display"):
+        gym.make(ENV_IDS[0], render_mode="human")
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
@@ -93,7 +108,10 @@ def test_flat_observation_variant(env_id):
     env = gym.make(env_id, observation_mode="flat")
     assert isinstance(env.observation_space, gym.spaces.Box)
     obs, _ = env.reset(seed=0)
-    assert obs.shape == (34,) and env.observation_space.contains(obs)
+    size = sum(n for _, n in OBSERVATION_LAYOUT)
+    assert obs.shape == (size,) and env.observation_space.contains(obs)
+    dict_obs, _ = gym.make(env_id).reset(seed=0)
+    np.testing.assert_array_equal(obs, np.concatenate([dict_obs[k] for k, _ in OBSERVATION_LAYOUT]))
     env.close()
 
 
@@ -134,15 +152,35 @@ def test_reward_is_sum_of_terms(env_id):
     env.close()
 
 
-@pytest.mark.parametrize(
-    "action",
-    [np.zeros(5), np.zeros((2, 6)), np.array([0, 0, np.nan, 0, 0, 0]), np.full(6, np.inf)],
-)
-def test_bad_actions_raise(action):
-    env = gym.make(ENV_IDS[0])
+@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("bad", ["short", "matrix", "nan", "inf"])
+def test_bad_actions_raise(env_id, bad):
+    env = gym.make(env_id)
     env.reset(seed=0)
+    n = env.action_space.shape[0]
+    action = {
+        "short": np.zeros(n - 1),
+        "matrix": np.zeros((2, n)),
+        "nan": np.r_[np.nan, np.zeros(n - 1)],
+        "inf": np.full(n, np.inf),
+    }[bad]
     with pytest.raises(ValueError, match="action"):
         env.step(action)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_stepping_after_the_episode_ended_raises(env_id):
+    env = gym.make(env_id, max_steps=2)
+    env.reset(seed=0)
+    truncated = False
+    while not truncated:
+        *_, terminated, truncated, _ = env.step(np.zeros(env.action_space.shape, np.float32))
+        assert not terminated
+    with pytest.raises(RuntimeError, match="call reset"):
+        env.step(np.zeros(env.action_space.shape, np.float32))
+    env.reset(seed=1)
+    env.step(np.zeros(env.action_space.shape, np.float32))
     env.close()
 
 
@@ -152,8 +190,17 @@ def test_bad_actions_raise(action):
         ({"not_a_keyword": 1}, "allowed"),
         ({"max_translation": -0.001}, "max_translation"),
         ({"families": ("sphere",)}, "families"),
-        ({"estimator_mode": "4d"}, "estimator_mode"),
-        ({"families": ("door",), "estimator_mode": "planar"}, "planar"),
+        ({"estimator": "4d"}, "estimator"),
+        ({"families": ("door",), "estimator": "planar"}, "planar"),
+        ({"skin": {"friction": -0.1}}, "skin.friction"),
+        ({"sensor": {"force_noise_std": "0.02"}}, "force_noise_std"),
+        ({"object": {"holding_torque": True}}, "holding_torque"),
+        ({"randomize": "False"}, "randomize"),
+        ({"substeps": True}, "substeps"),
+        ({"substeps": 10**6}, "substeps"),
+        ({"scenario": {"position_jitter": 1000}}, "position_jitter"),
+        ({"task": {"error_scale": 0}}, "error_scale"),
+        ({"task": {"error_cap": -0.1}}, "error_cap"),
         ({"gate": {"force_band": (5.0, 1.0)}}, "force_band"),
         ({"task": {"bogus": 1}}, "allowed"),
         ({"substeps": 0}, "substeps"),
@@ -165,9 +212,12 @@ def test_bad_keywords_raise(kwargs, match):
 
 
 def test_env_ids_registered():
+    assert len(set(tactile_gym.ENV_IDS)) == 4
     for env_id in tactile_gym.ENV_IDS:
-        spec = gym.spec(env_id)
-        assert spec.max_episode_steps == tactile_gym.MAX_EPISODE_STEPS
+        # The env truncates by itself (its observation says how much time is left).
+        assert gym.spec(env_id).max_episode_steps is None
+    with pytest.raises(gym.error.Error):
+        gym.spec("tactile_gym/HingeProbe-v0")
 
 
 def test_render_rgb_array():

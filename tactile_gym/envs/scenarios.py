@@ -3,12 +3,12 @@
 Frames and units: world frame (z up, table at z = 0), metres, radians. Every draw comes from the
 generator handed in (the env's ``np_random``).
 
-The fingertip starts a few millimetres off the free link's probed edge, its finger axis
-pointing at the edge: mostly down onto the top face, tilted ``approach_tilt`` toward the probed
-side. That is where the paper's protocol starts ("the fingertip touches the right grip"); it
-reveals one edge line but nothing about the hinge. A press from there holds the link still
-(the joint's holding torque resists it), and a small shear across the edge makes the edge
-observable.
+What the start reveals, and what it must not (the brief's "ground truth stays out"): the
+fingertip starts a few millimetres above the face of the free link that looks up, near its
+probed edge, like the paper's operator who brings the fingertip near the grip. Everything else
+is drawn so that the first observation does not encode the edge: where along the link, how far
+across the edge (over the face or beyond it), the height, and the direction in which the
+finger leans (uniform in azimuth). The policy finds the edge by touch.
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ import numpy as np
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.sim import ObjectConfig
 from tactile_gym.sim.config import FAMILIES
-from tactile_gym.spatial import matrix_to_quaternion, z_to
+from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
+from tactile_gym.validation import check_number, check_range
 
 __all__ = [
     "FAMILIES",
@@ -31,62 +32,50 @@ __all__ = [
     "sample_scenario",
 ]
 
+_DEG = np.pi / 180.0
+
 
 @dataclass(frozen=True)
 class ScenarioConfig:
     """Ranges of the reset randomisation (uniform draws).
 
     Attributes:
-        joint_angle_range: initial joint angle, rad (clipped to the joint limits).
+        joint_angle_range: initial joint angle, rad (clipped to the object's joint limits).
         size_scale_range: factor on the free link's length and width.
         position_jitter: largest horizontal offset of the hinge from the family default, m.
-        yaw_range: rotation of the whole layout about world z, rad (scissors keep the paper's
-            layout at 0).
+        yaw_range: rotation of the whole layout about world z, rad (the scissors keep the
+            paper's layout: their free link points from the hinge toward world +x).
         tilt_range: tilt of the ``tilted`` family's axis from vertical, rad.
         start_along_range: where along the free link the fingertip starts, as a fraction of
             the link's length from the hinge.
-        standoff_range: gap between the skin and the edge at the start, m.
-        approach_tilt: angle of the finger axis from the top face's normal, toward the
-            probed side face, rad.
-        approach_jitter: largest random change of ``approach_tilt``, rad.
-        holding_torque: the joint's holding friction, N m: enough that a 5 N press does not
-            turn the link, little enough that a push of a few newtons does.
+        start_across_range: signed distance of the hemisphere centre from the probed edge,
+            across it, in the plane of the face that looks up, m: negative over the face,
+            positive beyond the edge.
+        start_height_range: gap between the skin and the face's plane at the start, m.
+        lean_range: angle of the finger axis from straight down onto the face, rad; the
+            direction of the lean is uniform in azimuth.
     """
 
-    joint_angle_range: tuple[float, float] = (-0.35, 0.35)
+    joint_angle_range: tuple[float, float] = (-20 * _DEG, 20 * _DEG)
     size_scale_range: tuple[float, float] = (0.85, 1.15)
     position_jitter: float = 0.01
     yaw_range: tuple[float, float] = (-np.pi, np.pi)
-    tilt_range: tuple[float, float] = (np.deg2rad(10.0), np.deg2rad(30.0))
+    tilt_range: tuple[float, float] = (10 * _DEG, 30 * _DEG)
     start_along_range: tuple[float, float] = (0.45, 0.75)
-    standoff_range: tuple[float, float] = (0.002, 0.005)
-    approach_tilt: float = float(np.deg2rad(10.0))
-    approach_jitter: float = float(np.deg2rad(3.0))
-    holding_torque: float = 0.1
+    start_across_range: tuple[float, float] = (-0.004, 0.003)
+    start_height_range: tuple[float, float] = (0.002, 0.005)
+    lean_range: tuple[float, float] = (0.0, 15 * _DEG)
 
     def __post_init__(self) -> None:
-        for name in (
-            "joint_angle_range",
-            "size_scale_range",
-            "yaw_range",
-            "tilt_range",
-            "start_along_range",
-            "standoff_range",
-        ):
-            lo, hi = getattr(self, name)
-            if not lo <= hi:
-                raise ValueError(f"{name} must be (low, high) with low <= high, got {(lo, hi)}")
-        if not (0 < self.size_scale_range[0]):
-            raise ValueError(f"size_scale_range must be > 0, got {self.size_scale_range}")
-        if not (0 < self.start_along_range[0] and self.start_along_range[1] <= 1):
-            raise ValueError(f"start_along_range must lie in (0, 1], got {self.start_along_range}")
-        if not 0 <= self.approach_tilt < np.pi / 2:
-            raise ValueError(f"approach_tilt must be in [0, pi/2) rad, got {self.approach_tilt}")
-        if not (self.standoff_range[0] >= 0):
-            raise ValueError(f"standoff_range must be >= 0 m, got {self.standoff_range}")
-        for name in ("position_jitter", "approach_jitter", "holding_torque"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        check_range("scenario.joint_angle_range", self.joint_angle_range, -np.pi, np.pi)
+        check_range("scenario.size_scale_range", self.size_scale_range, 0.5, 2.0)
+        check_number("scenario.position_jitter", self.position_jitter, 0.0, 0.05)
+        check_range("scenario.yaw_range", self.yaw_range, -np.pi, np.pi)
+        check_range("scenario.tilt_range", self.tilt_range, 0.0, 60 * _DEG)
+        check_range("scenario.start_along_range", self.start_along_range, 0.1, 0.95)
+        check_range("scenario.start_across_range", self.start_across_range, -0.01, 0.006)
+        check_range("scenario.start_height_range", self.start_height_range, 0.0005, 0.02)
+        check_range("scenario.lean_range", self.lean_range, 0.0, 45 * _DEG)
 
 
 @dataclass(frozen=True)
@@ -100,7 +89,7 @@ class Scenario:
 
 
 def probed_edge(config: ObjectConfig, joint_angle: float) -> tuple[np.ndarray, ...]:
-    """Geometry of the free link's probed edge at a joint angle, world frame.
+    """Geometry of the free link's probed edge at a joint angle, world frame (ground truth).
 
     Returns:
         (origin, direction, side_normal, top_normal): the point of the edge line level with
@@ -123,31 +112,51 @@ def quaternion_z_to(direction: np.ndarray) -> np.ndarray:
     return matrix_to_quaternion(z_to(direction))
 
 
-def _sample_object(family: str, rng: np.random.Generator, cfg: ScenarioConfig) -> ObjectConfig:
-    nominal = ObjectConfig.family_default(family)
+def _sample_object(
+    family: str, rng: np.random.Generator, cfg: ScenarioConfig, overrides: dict
+) -> ObjectConfig:
+    nominal = ObjectConfig.family_default(family, **overrides)
     size = np.asarray(nominal.free_link_size, dtype=float)
     size[:2] *= rng.uniform(*cfg.size_scale_range, size=2)
     position = np.asarray(nominal.joint_position, dtype=float)
     position[:2] += rng.uniform(-cfg.position_jitter, cfg.position_jitter, size=2)
-    overrides = {
-        "free_link_size": tuple(size),
-        "joint_position": tuple(position),
-        "holding_torque": cfg.holding_torque,
-    }
+    drawn = {"free_link_size": tuple(size), "joint_position": tuple(position)}
     if family != "scissors":
-        yaw = rng.uniform(*cfg.yaw_range)
-        turn = np.array(
-            [[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]]
-        )
+        turn = rotvec_to_matrix([0.0, 0.0, rng.uniform(*cfg.yaw_range)])
         axis = np.asarray(nominal.axis, dtype=float)
         link = np.asarray(nominal.link_direction, dtype=float)
         if family == "tilted":
             tilt = rng.uniform(*cfg.tilt_range)
             axis = np.array([np.sin(tilt), 0.0, np.cos(tilt)])
             link = np.array([0.0, 1.0, 0.0])
-        overrides["axis"] = tuple(turn @ axis)
-        overrides["link_direction"] = tuple(turn @ link)
-    return ObjectConfig.family_default(family, **overrides)
+        drawn["axis"] = tuple(turn @ axis)
+        drawn["link_direction"] = tuple(turn @ link)
+    return ObjectConfig.family_default(family, **{**overrides, **drawn})
+
+
+def _start_pose(
+    config: ObjectConfig,
+    angle: float,
+    along: float,
+    across: float,
+    height: float,
+    lean: float,
+    azimuth: float,
+    geometry: FingertipGeometry,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Sensor origin and orientation for a hemisphere centre above the face that looks up."""
+    origin, direction, side_normal, top_normal = probed_edge(config, angle)
+    # The face that looks up is the one the finger starts above; "across" is measured
+    # toward the other face's outward normal, i.e. beyond the edge.
+    if side_normal[2] > top_normal[2]:
+        top_normal, side_normal = side_normal, top_normal
+    length = config.free_link_size[0] - config.pin_overlap
+    edge_point = origin + along * length * direction
+    centre = edge_point + across * side_normal + (geometry.outer_radius + height) * top_normal
+    tilt = rotvec_to_matrix(lean * (np.cos(azimuth) * direction + np.sin(azimuth) * side_normal))
+    finger_axis = tilt @ -top_normal
+    position = centre - geometry.cylinder_length * finger_axis
+    return position, quaternion_z_to(finger_axis)
 
 
 def sample_scenario(
@@ -156,32 +165,30 @@ def sample_scenario(
     cfg: ScenarioConfig,
     geometry: FingertipGeometry,
     randomize: bool = True,
+    object_overrides: dict | None = None,
 ) -> Scenario:
-    """Draw one episode's start; with ``randomize=False`` return the nominal one."""
+    """Draw one episode's start; with ``randomize=False`` return the nominal one.
+
+    Args:
+        rng: the only source of randomness.
+        families: object families to draw from.
+        cfg: the ranges.
+        geometry: the fingertip.
+        randomize: draw (True) or take the middle of every range and the first family.
+        object_overrides: ``ObjectConfig`` fields applied to every family before the draws.
+    """
+    overrides = dict(object_overrides or {})
     if randomize:
         family = families[int(rng.integers(len(families)))]
-        object_config = _sample_object(family, rng, cfg)
-        angle = rng.uniform(*cfg.joint_angle_range)
-        along = rng.uniform(*cfg.start_along_range)
-        standoff = rng.uniform(*cfg.standoff_range)
+        object_config = _sample_object(family, rng, cfg, overrides)
+        draws = [rng.uniform(*r) for r in (cfg.joint_angle_range, cfg.start_along_range)]
+        draws += [rng.uniform(*r) for r in (cfg.start_across_range, cfg.start_height_range)]
+        draws += [rng.uniform(*cfg.lean_range), rng.uniform(-np.pi, np.pi)]
     else:
-        object_config = ObjectConfig.family_default(families[0], holding_torque=cfg.holding_torque)
-        angle = 0.0
-        along = float(np.mean(cfg.start_along_range))
-        standoff = float(np.mean(cfg.standoff_range))
-    angle = float(np.clip(angle, object_config.lower_limit, object_config.upper_limit))
-    origin, direction, side_normal, top_normal = probed_edge(object_config, angle)
-    length = object_config.free_link_size[0] - object_config.pin_overlap
-    tilt = cfg.approach_tilt
-    if randomize and cfg.approach_jitter > 0:
-        tilt += rng.uniform(-cfg.approach_jitter, cfg.approach_jitter)
-    # Mostly onto the face that looks up, tilted toward the other face: a press that does not
-    # turn the link, and where a small shear across the edge makes the edge observable.
-    if side_normal[2] > top_normal[2]:
-        top_normal, side_normal = side_normal, top_normal
-    outward = np.cos(tilt) * top_normal + np.sin(tilt) * side_normal
-    edge_point = origin + along * length * direction
-    centre = edge_point + outward * (geometry.outer_radius + standoff)
-    finger_axis = -outward
-    position = centre - geometry.cylinder_length * finger_axis
-    return Scenario(object_config, angle, position, quaternion_z_to(finger_axis))
+        object_config = ObjectConfig.family_default(families[0], **overrides)
+        draws = [0.0, float(np.mean(cfg.start_along_range))]
+        draws += [float(np.mean(r)) for r in (cfg.start_across_range, cfg.start_height_range)]
+        draws += [float(np.mean(cfg.lean_range)), 0.0]
+    angle = float(np.clip(draws[0], object_config.lower_limit, object_config.upper_limit))
+    position, orientation = _start_pose(object_config, angle, *draws[1:], geometry)
+    return Scenario(object_config, angle, position, orientation)

@@ -1,8 +1,19 @@
-"""Reward, success and failure of the joint-axis estimation task.
+"""Reward, success and termination of the joint-axis estimation task.
 
-The task only sees numbers that the env hands it (errors in metres and radians, forces in
-newtons, the action); it never touches the simulator. Keeping these rules here, away from
-``step()``, lets tests check the reward terms directly (dm_control's ``Task`` split).
+The task sees only numbers that the env hands it: estimation errors (metres, radians), forces
+(newtons), the fingertip's distance from the hinge and the action. Keeping these rules here,
+away from ``step()``, lets tests check every reward term and every termination reason directly
+(dm_control's ``Task`` split).
+
+Reward. With the combined error ``E = min(position_error + L * angle_error, E_max)``, a step
+earns ``(E_{t-1} - E_t) / E_scale`` minus its penalties, and ``E_0`` is the error of the
+estimate at reset. The env's estimate at reset is its prior: the nominal layout and the spread
+of the reset distribution (``tactile_gym.envs.prior``), what a user knows before touching
+anything. So the return telescopes to ``(E_0 - E_T) / E_scale``, the error the agent removed
+from what it knew at the start: an early, poorly supported estimate does not pay unless it is
+better than the prior, and random actions earn about nothing. (The v0 task started every
+episode at the 100 mm cap instead, so the first estimate, however bad, paid most of the
+return.)
 """
 
 from __future__ import annotations
@@ -11,7 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["AxisEstimationTask", "TaskConfig"]
+from tactile_gym.validation import check_number
+
+__all__ = ["AxisEstimationTask", "StepFacts", "TaskConfig", "TERMINATION_REASONS"]
+
+#: Why an episode can end as a failure, in the order they are checked.
+TERMINATION_REASONS = ("left_workspace", "shell_contact", "overloaded")
 
 
 @dataclass(frozen=True)
@@ -20,41 +36,68 @@ class TaskConfig:
 
     Attributes:
         error_angle_scale: L in E = position error + L * angle error, m/rad.
-        error_cap: E_max, the error while there is no estimate (and the cap on E), m.
+        error_cap: E_max, the cap on E, m.
         error_scale: E_scale, the error reduction worth a reward of 1, m.
-        force_limit: force above which the penalty starts, N.
         force_penalty: penalty per unit of relative excess force, (|f| - limit) / limit.
         action_cost: penalty per unit of squared action norm.
         success_position: position error below which the episode counts as a success, m.
         success_angle: angle error below which the episode counts as a success, rad.
+        hard_force_limit: force that ends the episode as a failure, N.
+        workspace_radius: the episode fails when the sensor origin is further than this from
+            the hinge pin, m.
     """
 
     error_angle_scale: float = 0.05
     error_cap: float = 0.1
     error_scale: float = 0.01
-    force_limit: float = 8.0
     force_penalty: float = 0.1
     action_cost: float = 1e-3
     success_position: float = 0.002
     success_angle: float = float(np.deg2rad(2.0))
+    hard_force_limit: float = 30.0
+    workspace_radius: float = 0.25
+
+    def __post_init__(self) -> None:
+        check_number("task.error_angle_scale", self.error_angle_scale, 0.0, 1.0)
+        check_number("task.error_cap", self.error_cap, 0.0, 1.0, low_open=True)
+        check_number("task.error_scale", self.error_scale, 1e-5, 1.0)
+        check_number("task.force_penalty", self.force_penalty, 0.0, 100.0)
+        check_number("task.action_cost", self.action_cost, 0.0, 10.0)
+        check_number("task.success_position", self.success_position, 0.0, 0.1, low_open=True)
+        check_number("task.success_angle", self.success_angle, 0.0, np.pi / 2, low_open=True)
+        check_number("task.hard_force_limit", self.hard_force_limit, 1.0, 200.0)
+        check_number("task.workspace_radius", self.workspace_radius, 0.05, 1.0)
+
+
+@dataclass(frozen=True)
+class StepFacts:
+    """What the task needs to know about one control step.
+
+    Attributes:
+        position_error: distance from the true hinge pin to the estimated axis, m.
+        angle_error: angle between the estimated and the true axis, rad.
+        max_force: largest contact force during the step, N.
+        force_limit: the guarded move's limit, where the force penalty starts, N.
+        shell_contact: the object reached the rigid shell through the skin.
+        hinge_distance: distance of the fingertip's sensor origin from the hinge pin, m.
+        action: the normalised action.
+    """
+
+    position_error: float
+    angle_error: float
+    max_force: float
+    force_limit: float
+    shell_contact: bool
+    hinge_distance: float
+    action: np.ndarray
 
 
 class AxisEstimationTask:
-    """Turns estimation errors into rewards.
-
-    The reward is the reduction of the capped combined error,
-    ``r_t = (E_{t-1} - E_t) / E_scale - force_penalty - action_cost``, where
-    ``E = min(position_error + L * angle_error, E_max)`` and ``E = E_max`` while no estimate
-    exists. Without penalties the return telescopes to ``(E_max - E_T) / E_scale``.
-    """
+    """Turns estimation errors and step facts into rewards, success and termination."""
 
     def __init__(self, config: TaskConfig) -> None:
         self.config = config
         self._previous_error = config.error_cap
-
-    def initialize_episode(self) -> None:
-        """Start an episode with no estimate: E_0 = E_max."""
-        self._previous_error = self.config.error_cap
 
     def combined_error(self, position_error: float, angle_error: float) -> float:
         """E = position error + L * angle error, capped at E_max (m)."""
@@ -63,36 +106,32 @@ class AxisEstimationTask:
             return self.config.error_cap
         return float(min(error, self.config.error_cap))
 
-    def get_reward(
-        self,
-        position_error: float,
-        angle_error: float,
-        max_force: float,
-        action: np.ndarray,
-    ) -> tuple[float, dict[str, float]]:
-        """Reward for one step and its terms.
+    def initialize_episode(self, position_error: float, angle_error: float) -> None:
+        """Start an episode from the errors of the estimate at reset (the prior's)."""
+        self._previous_error = self.combined_error(position_error, angle_error)
 
-        Args:
-            position_error: distance from the true pin centre to the estimated axis, m
-                (inf when there is no estimate).
-            angle_error: angle between estimated and true axis, rad (pi/2 when none).
-            max_force: largest contact force magnitude during the step, N.
-            action: the normalised action in [-1, 1].
-
-        Returns:
-            The reward and a dict of its terms, which sum to the reward.
-        """
+    def get_reward(self, facts: StepFacts) -> tuple[float, dict[str, float]]:
+        """Reward for one step and its terms, which sum to the reward."""
         cfg = self.config
-        error = self.combined_error(position_error, angle_error)
+        error = self.combined_error(facts.position_error, facts.angle_error)
         error_reduction = (self._previous_error - error) / cfg.error_scale
         self._previous_error = error
-        excess = max(max_force - cfg.force_limit, 0.0) / cfg.force_limit
+        excess = max(facts.max_force - facts.force_limit, 0.0) / facts.force_limit
+        action = np.asarray(facts.action, dtype=float)
         terms = {
             "reward_error_reduction": float(error_reduction),
             "reward_force_penalty": float(-cfg.force_penalty * excess),
-            "reward_action_cost": float(-cfg.action_cost * float(np.dot(action, action))),
+            "reward_action_cost": float(-cfg.action_cost * float(action @ action)),
         }
         return float(sum(terms.values())), terms
+
+    def get_termination(self, facts: StepFacts) -> dict[str, bool]:
+        """Each failure reason (``TERMINATION_REASONS``) and whether it happened."""
+        return {
+            "left_workspace": bool(facts.hinge_distance > self.config.workspace_radius),
+            "shell_contact": bool(facts.shell_contact),
+            "overloaded": bool(facts.max_force > self.config.hard_force_limit),
+        }
 
     def is_success(self, position_error: float, angle_error: float) -> bool:
         """Both errors below their success thresholds."""

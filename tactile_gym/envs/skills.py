@@ -1,0 +1,328 @@
+"""Probing skills: short closed-loop fingertip motions over ``HingeProbe``'s 6-D actions.
+
+Each skill turns observations into normalised actions until it is done. They read only the
+observation (the F/T reading, the fingertip pose, the contact estimate), never the simulator,
+and they serve both the probing-primitive envs (one primitive runs one or a few skills) and
+the scripted baselines of every id. World frame, metres, newtons, radians.
+
+A :class:`ProbeFrame` carries what probing has revealed so far: where the last contact was,
+the normal of the face being probed (the line of the force of a pure press, which pushes
+along the face normal), and the edge (oriented physically, ``tactile_gym.envs.touch``), from
+which the face's interior side follows. Until the first press the face normal is taken as
+world +z: the fingertip starts above the face that looks up.
+
+The physics each skill relies on (``docs/design.md``):
+
+* :class:`Press` moves only along the face normal once touching, so the skin is not dragged and
+  the press is *pure*; it holds still for the gate's dwell, so the readings are averaged into
+  one measurement.
+* :class:`Drag` turns the link: pressing on the face near the edge and moving across the edge
+  toward the face's interior, the sticking skin carries the link along (at 5.5 N and mu = 0.5
+  the friction torque beats the joint's holding torque from about 40 mm out).
+* :class:`Lift` ends a touch, so that the next press starts with an unloaded skin.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tactile_gym.spatial import quaternion_to_matrix
+
+__all__ = [
+    "PRIMITIVES",
+    "Drag",
+    "Lift",
+    "Move",
+    "PrimitiveScales",
+    "Press",
+    "ProbeFrame",
+    "Skill",
+    "TouchReading",
+    "primitive_skills",
+]
+
+#: The probing primitives, chosen by the sign of action[0] (``primitive_skills``).
+PRIMITIVES = ("probe", "turn")
+
+UP = np.array([0.0, 0.0, 1.0])
+#: Force below which the skin counts as free, N.
+FREE_FORCE = 0.1
+#: Approximate force gradient of a 5 N edge press, N/m (it sets the press's step size).
+PRESS_STIFFNESS = 6000.0
+
+
+@dataclass(frozen=True)
+class TouchReading:
+    """The parts of one observation the skills use (world frame)."""
+
+    force: np.ndarray  # (3,) force on the fingertip, N
+    position: np.ndarray  # (3,) sensor origin, m
+    rotation: np.ndarray  # (3, 3) sensor to world
+    touching: bool
+    point: np.ndarray  # (3,) contact point (valid when touching), m
+    edge: np.ndarray | None  # (3,) physically oriented edge, when observable
+    measurements: int
+
+    @classmethod
+    def from_obs(cls, obs: dict) -> TouchReading:
+        pose = np.asarray(obs["fingertip_pose"], dtype=float)
+        rotation = quaternion_to_matrix(pose[3:7])
+        contact = np.asarray(obs["contact"], dtype=float)
+        edge = contact[7:10]
+        return cls(
+            force=rotation @ np.asarray(obs["wrench"][:3], dtype=float),
+            position=pose[:3],
+            rotation=rotation,
+            touching=bool(contact[0] > 0.5),
+            point=contact[1:4],
+            edge=edge / np.linalg.norm(edge) if np.linalg.norm(edge) > 0.5 else None,
+            measurements=int(round(float(obs["progress"][3]))),
+        )
+
+    @property
+    def magnitude(self) -> float:
+        return float(np.linalg.norm(self.force))
+
+
+@dataclass
+class ProbeFrame:
+    """What probing has revealed so far (module docstring), world frame.
+
+    Attributes:
+        normal: outward normal of the probed face (unit).
+        point: last contact point, m; None before the first touch.
+        edge: last measured edge, oriented physically (unit); None before the first one.
+    """
+
+    normal: np.ndarray = field(default_factory=lambda: UP.copy())
+    point: np.ndarray | None = None
+    edge: np.ndarray | None = None
+
+    @property
+    def interior(self) -> np.ndarray | None:
+        """Unit vector in the face plane from the edge toward the face's interior."""
+        if self.edge is None:
+            return None
+        v = np.cross(self.normal, self.edge)
+        return v / np.linalg.norm(v)
+
+    def update(self, reading: TouchReading) -> None:
+        """Take in the reading at the end of a still press.
+
+        A press pushes along the face normal, or, if it was oblique, closer to it than its
+        path was, so the force line improves the normal press by press. The edge is taken
+        from the reading whether or not the gate accepted it: it only steers the probing.
+        """
+        if not reading.touching or reading.magnitude < 1.0:
+            return
+        self.point = reading.point.copy()
+        self.normal = reading.force / reading.magnitude
+        if reading.edge is not None:
+            edge = reading.edge - (reading.edge @ self.normal) * self.normal
+            self.edge = edge / np.linalg.norm(edge)
+
+
+class Skill:
+    """A closed-loop motion: ``act(reading)`` returns an action, or None when done.
+
+    Args:
+        max_translation: the env's translation for an action of 1, m.
+        frame: the shared probing frame (read, and updated by the caller).
+        budget: control steps after which the skill gives up.
+    """
+
+    def __init__(self, max_translation: float, frame: ProbeFrame, budget: int) -> None:
+        self.max_translation = float(max_translation)
+        self.frame = frame
+        self.budget = int(budget)
+        self.steps = 0
+        self.failed = False
+
+    def act(self, reading: TouchReading) -> np.ndarray | None:
+        if self.steps >= self.budget:
+            self.failed = True
+            return None
+        move = self._move(reading)
+        if move is None:
+            return None
+        self.steps += 1
+        action = np.zeros(6)
+        action[:3] = move / self.max_translation
+        return np.clip(action, -1.0, 1.0)
+
+    def _move(self, reading: TouchReading) -> np.ndarray | None:
+        raise NotImplementedError
+
+    def _limited(self, move: np.ndarray) -> np.ndarray:
+        norm = float(np.linalg.norm(move))
+        return move if norm <= self.max_translation else move * (self.max_translation / norm)
+
+
+class Press(Skill):
+    """Press along the face normal to ``force``, then hold still for ``dwell`` steps.
+
+    Moving only along the normal keeps the press pure (module docstring). Ends after the
+    dwell, or failed when no contact comes within ``reach`` of travel.
+    """
+
+    def __init__(
+        self,
+        max_translation: float,
+        frame: ProbeFrame,
+        force: float = 5.0,
+        dwell: int = 5,
+        reach: float = 0.012,
+        tolerance: float = 0.3,
+    ) -> None:
+        super().__init__(max_translation, frame, budget=int(reach / max_translation) + 30)
+        self.force = float(force)
+        self.dwell = int(dwell)
+        self.reach = float(reach)
+        self.tolerance = float(tolerance)
+        self._held = 0
+        self._travel = 0.0
+
+    def _move(self, reading: TouchReading) -> np.ndarray | None:
+        n = self.frame.normal
+        error = self.force - reading.magnitude
+        if self._held or (reading.touching and abs(error) <= self.tolerance):
+            self._held += 1
+            if self._held > self.dwell:
+                self.frame.update(reading)
+                return None
+            return np.zeros(3)
+        if not reading.touching or reading.magnitude < FREE_FORCE:
+            if self._travel >= self.reach:
+                self.failed = True
+                return None
+            step = self.max_translation
+        else:
+            step = float(
+                np.clip(error / PRESS_STIFFNESS, -self.max_translation, self.max_translation)
+            )
+        self._travel += max(step, 0.0)
+        return -n * step
+
+
+class Lift(Skill):
+    """Move back along the face normal until the skin is free, then ``clearance`` more."""
+
+    def __init__(self, max_translation: float, frame: ProbeFrame, clearance: float = 0.001):
+        super().__init__(max_translation, frame, budget=20)
+        self.clearance = float(clearance)
+        self._free_travel = 0.0
+
+    def _move(self, reading: TouchReading) -> np.ndarray | None:
+        if reading.magnitude < FREE_FORCE:
+            if self._free_travel >= self.clearance:
+                return None
+            step = min(self.max_translation, self.clearance - self._free_travel)
+            self._free_travel += step
+            return self.frame.normal * step
+        self._free_travel = 0.0
+        return self.frame.normal * self.max_translation
+
+
+class Move(Skill):
+    """Translate by ``offset`` (world) while free of contact."""
+
+    def __init__(self, max_translation: float, frame: ProbeFrame, offset: np.ndarray):
+        offset = np.asarray(offset, dtype=float)
+        steps = int(np.ceil(np.linalg.norm(offset) / max_translation)) + 2
+        super().__init__(max_translation, frame, budget=steps)
+        self._left = offset.copy()
+
+    def _move(self, reading: TouchReading) -> np.ndarray | None:
+        if np.linalg.norm(self._left) < 1e-9:
+            return None
+        step = self._limited(self._left)
+        self._left = self._left - step
+        return step
+
+
+class Drag(Skill):
+    """Hold ``force`` on the face and move ``distance`` across the edge (positive: toward the
+    face's interior, where the sticking skin carries the link along).
+
+    It stops early when the force climbs past ``abort_force``: the link no longer follows
+    (a joint limit), and pressing on would push the skin through to the shell.
+    """
+
+    def __init__(
+        self,
+        max_translation: float,
+        frame: ProbeFrame,
+        distance: float,
+        force: float = 5.5,
+        abort_force: float = 7.0,
+    ) -> None:
+        steps = int(np.ceil(abs(distance) / max_translation)) + 30
+        super().__init__(max_translation, frame, budget=steps)
+        self.distance = float(distance)
+        self.force = float(force)
+        self.abort_force = float(abort_force)
+        self._done = 0.0
+
+    def _move(self, reading: TouchReading) -> np.ndarray | None:
+        n = self.frame.normal
+        interior = self.frame.interior
+        if interior is None or abs(self._done) >= abs(self.distance):
+            return None
+        if reading.magnitude > self.abort_force:
+            self.failed = True
+            return None
+        if not reading.touching or reading.magnitude < 0.5 * self.force:
+            # Not (yet) loaded: press first, do not slide over the face.
+            step = float(np.clip((self.force - reading.magnitude) / PRESS_STIFFNESS, 0.0, 0.0005))
+            return -n * max(step, 0.0002)
+        across = np.sign(self.distance) * interior
+        left = abs(self.distance) - abs(self._done)
+        sideways = min(self.max_translation * 0.9, left)
+        self._done += sideways
+        press = float(np.clip((self.force - reading.magnitude) / PRESS_STIFFNESS, -2e-4, 2e-4))
+        return across * sideways - n * press
+
+
+@dataclass(frozen=True)
+class PrimitiveScales:
+    """What an action component of 1 means for the primitives, m."""
+
+    probe_across: float = 0.003
+    probe_along: float = 0.01
+    turn_distance: float = 0.02
+
+
+def primitive_skills(
+    action: np.ndarray,
+    frame: ProbeFrame,
+    max_translation: float,
+    dwell: int,
+    scales: PrimitiveScales,
+) -> tuple[str, list[Skill]]:
+    """The primitive a normalised action (3,) asks for, as the skills that carry it out.
+
+    ``action[0] < 0``: ``probe`` -- lift, move by ``action[2]`` along and ``action[1]`` across
+    the last edge (positive beyond it), press along the face normal to 5 N and hold for
+    ``dwell`` steps. ``action[0] >= 0``: ``turn`` -- lift, move by ``action[2]`` along the
+    edge, press to 5.5 N and drag ``action[1]`` across the edge (positive toward the face's
+    interior). Before the first edge is known there are no directions to move in: ``probe``
+    presses where it is, ``turn`` only presses.
+    """
+    name = PRIMITIVES[int(action[0] >= 0.0)]
+    offset = np.zeros(3)
+    if frame.edge is not None:
+        offset = action[2] * scales.probe_along * frame.edge
+        if name == "probe":
+            offset = offset - action[1] * scales.probe_across * frame.interior
+    skills: list[Skill] = [Lift(max_translation, frame)]
+    if np.linalg.norm(offset) > 0.0:
+        skills.append(Move(max_translation, frame, offset))
+    if name == "probe":
+        skills.append(Press(max_translation, frame, force=5.0, dwell=dwell))
+    else:
+        skills.append(Press(max_translation, frame, force=5.5, dwell=0))
+        if frame.edge is not None:
+            skills.append(Drag(max_translation, frame, action[1] * scales.turn_distance))
+    return name, skills

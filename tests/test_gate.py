@@ -1,0 +1,126 @@
+"""The measurement gate in simulation: what it accepts, what it refuses, and why.
+
+Truth (the free link's edge) is read only inside these tests, to judge the gate.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import tactile_gym  # noqa: F401 - registers the envs
+from tactile_gym.envs.gate import GateConfig
+
+DOWN = np.array([0.0, 0.0, -1.0])
+
+
+def make(**scenario):
+    env = gym.make("tactile_gym/HingeProbe-v1", randomize=False, scenario=scenario)
+    env.reset(seed=0)
+    return env, env.unwrapped
+
+
+ZERO = np.zeros(3)
+
+
+def press(env, target=5.0, sideways=ZERO, hold=6, turn=ZERO):
+    """Move down (plus ``sideways`` per step, m) until |f| ~ target, then hold (optionally
+    turning by ``turn`` per step, rad); return the new measurements."""
+    u = env.unwrapped
+    step = u.config.max_translation
+    obs = None
+    for _ in range(40):
+        f = u._touch.force
+        error = target - np.linalg.norm(f)
+        if abs(error) < 0.3 and np.linalg.norm(f) > 1.0:
+            break
+        down = 0.5 * step if np.linalg.norm(f) < 0.2 else np.clip(error / 6000.0, -step, step)
+        obs, *_ = env.step(np.r_[(DOWN * down + sideways) / step, 0, 0, 0].astype(np.float32))
+    for _ in range(hold):
+        obs, *_ = env.step(np.r_[0, 0, 0, turn / u.config.max_rotation].astype(np.float32))
+    return obs
+
+
+def edge_error_deg(u, m) -> tuple[float, float]:
+    origin, direction = u.scene.edge_line
+    angle = np.degrees(np.arccos(min(1.0, abs(m.edge @ direction))))
+    v = m.point - origin
+    return angle, float(np.linalg.norm(v - (v @ direction) * direction))
+
+
+def test_a_pure_press_on_the_edge_is_one_measurement_of_it():
+    env, u = make(start_across_range=(0.0005, 0.0005))
+    press(env, hold=15)
+    assert len(u.measurements) == 1  # one per touch, however long the hold
+    m = u.measurements[0]
+    angle, distance = edge_error_deg(u, m)
+    assert angle < 3.0 and distance < 0.003
+    # Oriented physically: the face's interior lies on the side of (force x edge).
+    force = u._touch.force / np.linalg.norm(u._touch.force)
+    _, direction = u.scene.edge_line
+    side = u.scene.object_config.edge_side
+    interior = -side * np.cross(u.scene.true_axis[1], direction)
+    assert np.cross(force, m.edge) @ interior > 0
+    eig = np.linalg.eigvalsh(m.edge_cov)
+    assert eig.min() > -1e-12 and np.sqrt(eig.sum()) == pytest.approx(m.edge_std)
+    # Lift off and press again: a new touch, a second measurement.
+    for _ in range(3):
+        env.step(np.r_[0, 0, 1, 0, 0, 0].astype(np.float32))
+    press(env)
+    assert len(u.measurements) == 2
+    env.close()
+
+
+def test_a_press_that_drags_along_the_edge_is_refused():
+    env, u = make(start_across_range=(0.0005, 0.0005))
+    _, direction = u.scene.edge_line  # truth aims the drag: this test attacks the gate
+    press(env, sideways=direction * 2e-5)  # ~1 deg of the path along the edge
+    assert not u.measurements
+    assert "drag bias" in u.gate.last_rejection
+    env.close()
+
+
+def test_a_press_on_the_flat_face_is_refused():
+    env, u = make(start_across_range=(-0.008, -0.008))
+    press(env)
+    assert not u.measurements
+    assert "tilt" in u.gate.last_rejection or "no edge" in u.gate.last_rejection
+    env.close()
+
+
+def test_a_turning_or_moving_fingertip_is_not_measured():
+    env, u = make(start_across_range=(0.0005, 0.0005))
+    press(env, hold=8, turn=np.array([0.0, 0.0, 0.002]))
+    assert not u.measurements
+    env.close()
+    env, u = make(start_across_range=(0.0005, 0.0005))
+    press(env, hold=0)
+    for _ in range(8):  # creep sideways at 0.05 mm per step while pressed
+        env.step(np.r_[0.025, 0, 0, 0, 0, 0].astype(np.float32))
+    assert not u.measurements
+    env.close()
+
+
+def test_a_press_outside_the_force_band_is_not_measured():
+    env, u = make(start_across_range=(0.0005, 0.0005))
+    press(env, target=2.5)
+    assert not u.measurements
+    env.close()
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"force_band": (5.0, 1.0)},
+        {"dwell": 0},
+        {"dwell": 2.5},
+        {"friction_share": -0.1},
+        {"bias_budget": 2.0},
+        {"point_std": 0.0},
+        {"touch_force": 9.0},
+    ],
+)
+def test_gate_config_validation(kw):
+    with pytest.raises(ValueError, match="gate"):
+        GateConfig(**kw)

@@ -1,0 +1,76 @@
+"""The task object: reward terms, the prior baseline, success and every termination reason."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tactile_gym.envs.task import (
+    TERMINATION_REASONS,
+    AxisEstimationTask,
+    StepFacts,
+    TaskConfig,
+)
+
+
+def facts(**kw) -> StepFacts:
+    base = dict(
+        position_error=0.01,
+        angle_error=0.0,
+        max_force=5.0,
+        force_limit=8.0,
+        shell_contact=False,
+        hinge_distance=0.05,
+        action=np.zeros(6),
+    )
+    return StepFacts(**{**base, **kw})
+
+
+def test_return_telescopes_from_the_prior_error():
+    task = AxisEstimationTask(TaskConfig())
+    task.initialize_episode(0.008, np.deg2rad(1.0))
+    e0 = 0.008 + 0.05 * np.deg2rad(1.0)
+    errors = [(0.02, 0.3), (np.inf, np.pi / 2), (0.004, 0.01), (0.001, 0.002)]
+    total = sum(task.get_reward(facts(position_error=p, angle_error=a))[0] for p, a in errors)
+    final = 0.001 + 0.05 * 0.002
+    assert total == pytest.approx((e0 - final) / 0.01)
+
+
+def test_a_worse_first_estimate_costs_reward():
+    """No jump: an estimate worse than the prior earns a negative reward."""
+    task = AxisEstimationTask(TaskConfig())
+    task.initialize_episode(0.006, 0.0)
+    reward, terms = task.get_reward(facts(position_error=0.05))
+    assert reward < 0 and terms["reward_error_reduction"] == pytest.approx(-4.4)
+
+
+def test_reward_is_the_sum_of_its_terms_and_penalties_bite():
+    task = AxisEstimationTask(TaskConfig())
+    task.initialize_episode(0.01, 0.0)
+    reward, terms = task.get_reward(facts(max_force=12.0, action=np.ones(6)))
+    assert reward == pytest.approx(sum(terms.values()))
+    assert terms["reward_force_penalty"] == pytest.approx(-0.1 * 4.0 / 8.0)
+    assert terms["reward_action_cost"] == pytest.approx(-0.006)
+
+
+@pytest.mark.parametrize(
+    "reason, kw",
+    [
+        ("left_workspace", {"hinge_distance": 0.26}),
+        ("shell_contact", {"shell_contact": True}),
+        ("overloaded", {"max_force": 31.0}),
+    ],
+)
+def test_each_termination_reason_fires_alone(reason, kw):
+    task = AxisEstimationTask(TaskConfig())
+    out = task.get_termination(facts(**kw))
+    assert set(out) == set(TERMINATION_REASONS)
+    assert out == {r: r == reason for r in TERMINATION_REASONS}
+    assert not any(task.get_termination(facts()).values())
+
+
+def test_success_needs_both_errors_small():
+    task = AxisEstimationTask(TaskConfig())
+    assert task.is_success(0.0019, np.deg2rad(1.9))
+    assert not task.is_success(0.0021, 0.0)
+    assert not task.is_success(0.0, np.deg2rad(2.1))
