@@ -1,0 +1,269 @@
+"""Attack the measurement gate with adversarial policies; judge what it lets through.
+
+Each policy acts on the 6-D fingertip actions (the primitive ids run the same gate under their
+primitives, and are attacked with random primitives). The truth is read only here, after the
+episodes: every accepted measurement is compared with the nearest long edge of the free
+link's face that looks up (both long edges of these symmetric links are valid measurements of
+one edge distance, ``tactile_gym/envs/touch.py``). Required (issue "HingeProbe-v1"): P95 edge
+error <= 5 deg and P95 distance from the edge line <= 3 mm.
+
+The full attack (60 episodes per id) is ``slow``; the default run keeps a short one.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import tactile_gym
+from tactile_gym.envs.scenarios import probed_edge
+
+P95_EDGE_DEG = 5.0
+P95_DISTANCE = 0.003
+
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+class Adversary:
+    """Base: a seeded generator, a phase counter and the env's action scales."""
+
+    def __init__(self, env, rng: np.random.Generator) -> None:
+        self.rng = rng
+        self.u = env.unwrapped
+        self.t = 0
+
+    def force(self, obs) -> float:
+        return float(np.linalg.norm(obs["wrench"][:3]))
+
+    def act(self, obs) -> np.ndarray:
+        self.t += 1
+        return np.clip(self._act(obs), -1.0, 1.0).astype(np.float32)
+
+
+class Random(Adversary):
+    def _act(self, obs):
+        return self.rng.uniform(-1, 1, 6)
+
+
+class Corners(Adversary):
+    """Corner actions (every component +-1), each held for a few steps."""
+
+    def _act(self, obs):
+        if self.t % 5 == 1:
+            self.a = self.rng.choice([-1.0, 1.0], 6) * np.r_[1, 1, 1, 0.3, 0.3, 0.3]
+        return self.a
+
+
+class PressAndWiggle(Adversary):
+    """Press down to about 5 N, then wiggle: tiny translations and turns, some still steps."""
+
+    def _act(self, obs):
+        if self.force(obs) < 4.5 and self.t < 40:
+            return np.r_[0, 0, -0.2, 0, 0, 0]
+        if self.rng.random() < 0.3:
+            return np.zeros(6)
+        return np.r_[self.rng.normal(0, 0.02, 3), self.rng.normal(0, 0.02, 3)]
+
+
+class ObliqueRetouch(Adversary):
+    """Press along a random direction off vertical (half of the presses within 2 deg, where
+    the gate's thresholds are tested; the rest up to 15 deg) to about 5 N, hold, lift, move a
+    little, press again: re-touches and oblique presses."""
+
+    def _act(self, obs):
+        f = self.force(obs)
+        state = getattr(self, "state", "aim")
+        if state == "aim":
+            small = self.rng.random() < 0.5
+            tilt = np.deg2rad(self.rng.uniform(0, 2) if small else self.rng.uniform(2, 15))
+            az = self.rng.uniform(-np.pi, np.pi)
+            self.d = np.array([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), -np.cos(tilt)])
+            self.state, self.n = "press", 0
+        if self.state == "press":
+            self.n += 1
+            if f < 4.8 and self.n < 40:
+                return np.r_[self.d * (0.25 if f < 0.1 else 0.08), 0, 0, 0]
+            self.state, self.n = "hold", 0
+        if self.state == "hold":
+            self.n += 1
+            if self.n < 7:
+                return np.zeros(6)
+            self.state, self.n = "lift", 0
+        if self.state == "lift":
+            self.n += 1
+            if f > 0.05 or self.n < 3:
+                return np.r_[0, 0, 0.5, 0, 0, 0]
+            self.state = "aim"
+            return np.r_[self.rng.normal(0, 0.4, 2), 0, 0, 0, 0]
+        return np.zeros(6)
+
+
+class PressAndSlide(Adversary):
+    """Press to 5 N, then slide in a random horizontal direction (holding the force)."""
+
+    def _act(self, obs):
+        if self.t == 1:
+            az = self.rng.uniform(-np.pi, np.pi)
+            self.d = np.array([np.cos(az), np.sin(az), 0.0]) * self.rng.uniform(0.05, 0.5)
+        f = self.force(obs)
+        if f < 4.5 and self.t < 30:
+            return np.r_[0, 0, -0.2, 0, 0, 0]
+        return np.r_[self.d[:2], np.clip(0.05 * (f - 5.0), -0.2, 0.2), 0, 0, 0]
+
+
+class DragThenPress(Adversary):
+    """Drag the link in a random direction, stop, and hold still without lifting (a sheared
+    skin), then press deeper: what a careless turning policy does."""
+
+    def _act(self, obs):
+        phase = self.t % 20
+        f = self.force(obs)
+        if phase == 1:
+            az = self.rng.uniform(-np.pi, np.pi)
+            self.d = np.array([np.cos(az), np.sin(az)]) * 0.6
+        if f < 4.5 and phase < 6:
+            return np.r_[0, 0, -0.2, 0, 0, 0]
+        if phase < 12:
+            return np.r_[self.d, np.clip(0.05 * (f - 5.5), -0.2, 0.2), 0, 0, 0]
+        if phase < 17:
+            return np.zeros(6)
+        return np.r_[0, 0, -0.05, 0, 0, 0]
+
+
+class ShearThenPress(Adversary):
+    """Touch lightly, drag the barely loaded skin sideways (loading its sticking springs),
+    then press straight down to about 5 N and hold: a pre-sheared skin under a clean-looking
+    press. Then lift and do it again."""
+
+    def _act(self, obs):
+        f = self.force(obs)
+        state = getattr(self, "state", "aim")
+        if state == "aim":
+            az = self.rng.uniform(-np.pi, np.pi)
+            self.d = np.array([np.cos(az), np.sin(az)]) * self.rng.uniform(0.02, 0.15)
+            self.light = self.rng.uniform(0.03, 0.3)
+            self.state, self.n = "touch", 0
+        if self.state == "touch":
+            self.n += 1
+            if f < self.light and self.n < 40:
+                return np.r_[0, 0, -0.03, 0, 0, 0]
+            self.state, self.n = "shear", 0
+        if self.state == "shear":
+            self.n += 1
+            if self.n < 5:
+                return np.r_[self.d, 0, 0, 0, 0]
+            self.state, self.n = "press", 0
+        if self.state == "press":
+            self.n += 1
+            if f < 4.8 and self.n < 40:
+                return np.r_[0, 0, -0.08, 0, 0, 0]
+            self.state, self.n = "hold", 0
+        if self.state == "hold":
+            self.n += 1
+            if self.n < 7:
+                return np.zeros(6)
+            self.state, self.n = "lift", 0
+        self.n += 1
+        if f > 0.05 or self.n < 3:
+            return np.r_[0, 0, 0.5, 0, 0, 0]
+        self.state = "aim"
+        return np.zeros(6)
+
+
+ADVERSARIES = (
+    Random,
+    Corners,
+    PressAndWiggle,
+    ObliqueRetouch,
+    PressAndSlide,
+    DragThenPress,
+    ShearThenPress,
+)
+
+
+def _errors_against_both_long_edges(u, m):
+    """Edge angle (deg) and line distance (m) to the nearest long edge of the top face."""
+    cfg = u.scene.object_config
+    origin, direction, side, top = probed_edge(cfg, u.scene.joint_angle)
+    width = cfg.free_link_size[1]
+    best = (np.inf, np.inf)
+    for o in (origin, origin - side * width):
+        v = m.point - o
+        distance = float(np.linalg.norm(v - (v @ direction) * direction))
+        angle = float(np.degrees(np.arccos(min(1.0, abs(m.edge @ direction)))))
+        best = min(best, (distance, angle))
+    return best[1], best[0]
+
+
+def attack(env_id: str, episodes: int, steps: int, seed: int = 0):
+    """Run the adversaries; return (edge errors deg, distances m) of every acceptance."""
+    env = gym.make(env_id, max_steps=steps)
+    u = env.unwrapped
+    angles, distances = [], []
+    rng = np.random.default_rng(seed)
+    for k in range(episodes):
+        obs, _ = env.reset(seed=seed + k)
+        adversary = ADVERSARIES[k % len(ADVERSARIES)](env, rng)
+        done = False
+        while not done:
+            before = len(u.measurements)
+            obs, _, terminated, truncated, _ = env.step(adversary.act(obs))
+            done = terminated or truncated
+            # Judge each new measurement against the link as it is when accepted.
+            for m in u.measurements[before:]:
+                angle, distance = _errors_against_both_long_edges(u, m)
+                angles.append(angle)
+                distances.append(distance)
+    env.close()
+    return np.array(angles), np.array(distances)
+
+
+def attack_primitives(env_id: str, episodes: int, seed: int = 0):
+    """Random primitives (with their parameters) on a primitive id; same judgement."""
+    env = gym.make(env_id, max_steps=300)
+    base = env.unwrapped
+    low = base.env
+    angles, distances = [], []
+    for k in range(episodes):
+        env.reset(seed=seed + k)
+        env.action_space.seed(seed + k)
+        done = False
+        while not done:
+            before = len(low.measurements)
+            _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+            done = terminated or truncated
+            for m in low.measurements[before:]:
+                angle, distance = _errors_against_both_long_edges(low, m)
+                angles.append(angle)
+                distances.append(distance)
+    env.close()
+    return np.array(angles), np.array(distances)
+
+
+def _check(angles, distances, at_least: int):
+    assert len(angles) >= at_least, f"only {len(angles)} measurements accepted"
+    assert np.percentile(angles, 95) <= P95_EDGE_DEG, np.sort(angles)[-10:]
+    assert np.percentile(distances, 95) <= P95_DISTANCE, np.sort(distances)[-10:]
+
+
+def test_gate_survives_a_short_attack():
+    angles, distances = attack("tactile_gym/HingeProbe-v1", episodes=12, steps=120)
+    # Some adversaries do make honest presses; what gets through must be right.
+    _check(angles, distances, at_least=3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env_id", [e for e in tactile_gym.ENV_IDS if "Primitive" not in e])
+def test_gate_survives_the_full_attack(env_id):
+    angles, distances = attack(env_id, episodes=60, steps=250, seed=100)
+    _check(angles, distances, at_least=20)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env_id", [e for e in tactile_gym.ENV_IDS if "Primitive" in e])
+def test_gate_survives_random_primitives(env_id):
+    angles, distances = attack_primitives(env_id, episodes=50, seed=100)
+    _check(angles, distances, at_least=20)
