@@ -1,6 +1,6 @@
 """Train a stable-baselines3 agent on a tactile_gym env.
 
-    python -m agents.train --algo ppo --env tactile_gym/HingeProbe-v0
+    python -m agents.train --algo ppo --env tactile_gym/HingeProbe-v1
     python -m agents.train --algo sac --n-timesteps 20000 --env-kwargs observation_mode:flat \
         --hyperparams policy:MlpPolicy
 
