@@ -104,7 +104,7 @@ MAX_PRESSES = 8  # per search
 #: m from the nominal hinge along the nominal grip, the first search of a trial. Sliding
 #: contacts creep ~10 mm toward the hinge per 30 deg, so they start far out to stay clear of
 #: the fixed grip; fixed ones stay, so they start nearer, where an edge-direction error moves
-#: the edge line less (DESIGN.md 2.5).
+#: the edge line less (docs/design.md 6.3).
 START_ALONG = {"slides": 0.060, "fixed": 0.035}
 END_CLEARANCE = 0.012  # m, the first search keeps this far from the grip's free end
 START_INSET = 0.005  # m inside the nominal edge, the first search

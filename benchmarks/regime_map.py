@@ -5,7 +5,7 @@ Run: ``python benchmarks/regime_map.py [--quick] [--readings N] [--seed S] [--fi
 ``--quick`` runs a coarse grid for iteration (~20 s; the full map ~1.5 min). Single process,
 single thread.
 
-Every probe touches the scissors' free link 5 cm from the pin (DESIGN.md 2.2), the finger
+Every probe touches the scissors' free link 5 cm from the pin (docs/design.md 4.1), the finger
 axis along the face normal and the sphere centre ``offset`` across the edge (negative: over
 the face; positive: beyond the edge). The link is held firmly (holding torque ``HELD``) so
 that the map shows the sensing alone; section 5 lets a link give way. The simulator's truth

@@ -26,7 +26,7 @@ from tactile_gym.sensing import (
 GEOM = FingertipGeometry()
 R = GEOM.outer_radius
 L = GEOM.cylinder_length
-K_N = 8.8e7  # N/m^3, DESIGN.md 2.4
+K_N = 8.8e7  # N/m^3, docs/design.md 3.1
 SIGMA_F = SensorConfig().force_noise_std  # N
 SIGMA_M = SensorConfig().moment_noise_std  # N m
 
@@ -96,7 +96,7 @@ def test_round_trip_recovers_point_normal_and_moments(name, model):
 
 
 def test_hard_model_keeps_the_pitch_and_edge_matches_paper_formula():
-    """With r on the line of action q = pitch f, so e = +-normalise(n x q_t) (DESIGN 2.1)."""
+    """With r on the line of action q = pitch f, so e = +-normalise(n x q_t) (docs/design.md 4.1)."""
     r, n = CONTACTS["sphere_mid"]
     f = pressing_force(n, 5.0, math.radians(15), 1.0)
     pitch = 3e-4  # m
@@ -223,7 +223,7 @@ def test_edge_std_is_calibrated_against_sensor_noise(model, name, tilt_deg):
         errors.append(angle_between_lines(est.edge_direction, truth.edge_direction))
     rms = math.sqrt(np.mean(np.square(errors)))
     assert truth.edge_std / 1.5 < rms < truth.edge_std * 1.5
-    # On the sphere the DESIGN.md 2.1 rule of thumb agrees to within a factor of 2; the
+    # On the sphere the docs/design.md 5 rule of thumb agrees to within a factor of 2; the
     # cylinder is curved in one direction only, so its normal moves less and e is better.
     rule = (SIGMA_F + SIGMA_M / R) / (5.0 * math.sin(math.radians(tilt_deg)))
     assert truth.edge_std < rule * 2
@@ -330,7 +330,7 @@ def test_noisy_presses_through_the_centre_pass_at_the_chi_square_rate():
 @pytest.mark.parametrize("model", ["soft", "hard"])
 @pytest.mark.parametrize("tilt_deg", [8.0, 11.0, 14.0])
 def test_edge_press_at_5_newtons_is_observable(name, model, tilt_deg):
-    """DESIGN.md 2.2: a truncated patch tilts a 5 N press 8-14 degrees across the edge.
+    """docs/design.md 4.1: a truncated patch tilts a 5 N press 8-14 degrees across the edge.
 
     The noise-free margin s0 is over 15, so the predicted false-flag rate
     P(chi2(2, s0^2) < k^2) <= Phi(k - s0) is below 1e-35; 300 noisy draws show none.

@@ -2,7 +2,7 @@
 
 A face bounded by a straight edge truncates the patch of a press: its centroid, and with it
 the line of action, moves off the sphere centre, so the force is tilted from the skin normal
-at the Bicchi point, across the edge (DESIGN.md 2.2). That holds only if every node is pressed
+at the Bicchi point, across the edge (docs/design.md 4.1). That holds only if every node is pressed
 by the face it came through; these tests check it for several faces, approaches and edge
 radii, and check the edge direction that the sensing recovers from a noise-free press.
 """
@@ -280,7 +280,7 @@ def test_penetration_is_continuous_across_a_large_rounding(skin):
 
 @pytest.mark.parametrize("offset", [-0.002, 0.0, 0.001, 0.002])
 def test_noise_free_press_on_the_edge_gives_the_edge(offset):
-    """DESIGN 2.2: a vertical 5 N press on the scissors' free link whose patch the edge
+    """docs/design.md 4.1: a vertical 5 N press on the scissors' free link whose patch the edge
     truncates; the noise-free wrench gives the edge within 1 degree (measured 0.1-0.5)."""
     with ProbeScene(ObjectConfig.scissors()) as scene:
         g = scene.geometry

@@ -73,7 +73,7 @@ def estimates(scene, n: int, seed: int = 0):
 
 
 def test_oblique_press_with_shear_senses_edge(scene):
-    """DESIGN 2.1-2.2: a shear across the edge tilts the force further; point within 2 mm of
+    """docs/design.md 4.1-4.2: a shear across the edge tilts the force further; point within 2 mm of
     the edge after indentation correction, direction within 0.5 degree noise-free and
     1.5 degrees (median) at default noise (measured 0.02 and 0.6)."""
     press_edge(scene, tilt_deg=15.0, force=5.0, shear=0.0008)

@@ -12,7 +12,7 @@ edge), e.g. ``var_in g g^T + var_out n n^T`` for a skin normal n and ``g = n x e
 * :func:`fit_axis_simple` - the paper's perpendicular-bisector baseline (eq. 22-26);
 * :func:`fit_axis_3d` - any axis direction (eq. 3, 8, 9-10), robust losses, covariance;
 * :class:`JointAxisEstimator` - the online, weighted estimator;
-* :func:`axis_error` - position and angle error against the truth (DESIGN.md section 4).
+* :func:`axis_error` - position and angle error against the truth (docs/design.md 6.7).
 """
 
 from tactile_gym.estimation.axis import COVARIANCE_LAYOUT, AxisEstimate

@@ -1,6 +1,6 @@
 """The joint-axis estimate returned by every fit, and the helpers the fits share.
 
-Conventions (DESIGN.md section 4):
+Conventions (docs/design.md 2 and 6.7):
 
 * World frame (z up, table top at z = 0), metres, radians.
 * An axis is the line ``point + s * direction``. ``point`` is the point of the line closest to

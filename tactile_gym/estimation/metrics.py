@@ -1,4 +1,4 @@
-"""Error of a joint-axis estimate against the truth (DESIGN.md section 4).
+"""Error of a joint-axis estimate against the truth (docs/design.md 6.7).
 
 World frame, metres, radians.
 """

@@ -7,7 +7,7 @@ contact-point std per axis (m), ``edge_std`` the edge's total RMS angle error (r
 ``edge_cov`` optionally its full covariance (rad^2), as for
 :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`.
 
-Weighting (DESIGN.md 2.5: the fit is badly conditioned over small rotations). Each
+Weighting (docs/design.md 6.3: the fit is badly conditioned over small rotations). Each
 measurement is weighted by the inverse of its predicted residual variance; in the planar
 mode ``point_std^2 + lever^2 var_z``, where ``var_z`` is the variance of the edge's rotation
 about z and the lever the distance along the edge from the contact point to the foot of

@@ -5,7 +5,7 @@ where the object touches the skin (Bicchi's intrinsic contact sensing), the fric
 split as in Matsuo et al. (2010), eq. 12-14, the direction of the object's edge with its
 predicted error, and the indentation of the skin.
 
-Conventions (DESIGN.md section 4):
+Conventions (docs/design.md 2):
 
 * SI units: metres, newtons, newton-metres, radians. Stiffness in N/m^3 (Winkler modulus).
 * Every point, direction, force and moment taken or returned here is in the **sensor frame**:
@@ -416,7 +416,7 @@ def estimate_contact(
     (sigma_f + sigma_m/R)/(|f| sin tilt). Most of it lies along e x f: an error in the
     contact point turns n, and e stays perpendicular to f.
 
-    **Observability** (DESIGN.md 2.1-2.2). e carries edge information only when f is tilted
+    **Observability** (docs/design.md 4.1). e carries edge information only when f is tilted
     from -n; a press whose line of action passes through the centre of curvature (a flat
     face, or any radial press) has no tilt, and its e is noise. The edge counts as
     observable when the tangential force f_t stands out of its predicted noise,
@@ -430,7 +430,7 @@ def estimate_contact(
     so this test cannot tell the two apart. ``line_offset`` says how far the line of action
     passes from the centre of curvature.
 
-    **Indentation** (DESIGN.md 2.6): with ``skin_stiffness`` given,
+    **Indentation** (docs/design.md 4.5): with ``skin_stiffness`` given,
     delta = ``indentation_depth(-f . n, skin_stiffness, R, contact_shape)`` capped at the skin
     thickness (the shell is rigid), and corrected_point = r - delta n. The sphere formula is
     used on the cylinder too, an approximation there.
@@ -708,7 +708,7 @@ def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m):
       moves only n and keeps e perpendicular to f, so it turns e along e x f.
 
     For a press on the hemisphere's top the RMS angle error is
-    ~ (sigma_f + sigma_m/R)/(|f| sin tilt), the DESIGN.md 2.1 estimate, with the lever |r|
+    ~ (sigma_f + sigma_m/R)/(|f| sin tilt), the estimate of docs/design.md 5, with the lever |r|
     of the sensor origin folded in.
 
     Args:
@@ -770,7 +770,7 @@ def _line_offset(f, fnorm, q, n, radius):
 
 
 def _indentation_correction(f, r, n, k_n, geometry, contact_shape):
-    """Indentation depth and the contact point moved in by it (DESIGN.md 2.6).
+    """Indentation depth and the contact point moved in by it (docs/design.md 4.5).
 
     Args:
         f: (3,) force, N; r: (3,) contact point, m; n: (3,) outward unit normal. Sensor frame.

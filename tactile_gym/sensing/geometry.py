@@ -1,6 +1,6 @@
 """Geometry of the soft fingertip: a cylinder capped by a hemisphere, covered by a skin.
 
-Conventions (see DESIGN.md section 4):
+Conventions (see docs/design.md 2):
 
 * SI units: metres.
 * Sensor frame: origin at the force/torque sensor, z along the finger axis. The rigid shell is

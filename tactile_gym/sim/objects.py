@@ -12,7 +12,7 @@ The object is one PyBullet multibody built with ``createMultiBody`` (no URDF fil
 fixed link, mass 0) and one revolute child (the free link). PyBullet collisions of the object
 are switched off: the skin computes contact itself, and link-on-table friction would be an
 uncontrolled second source of joint friction. The joint's holding friction is a
-zero-velocity motor with a small max force (DESIGN 2.4) plus viscous damping.
+zero-velocity motor with a small max force (docs/design.md 3.3) plus viscous damping.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The probing scene: table, hinged object, soft fingertip on an F/T sensor.
 
-Frames (DESIGN.md section 4):
+Frames (docs/design.md 2):
 
 * world: z up, table top at z = 0; object poses, the true axis, the edge line, the fingertip
   pose and the contact centroid are in the world frame;

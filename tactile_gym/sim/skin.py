@@ -1,6 +1,6 @@
 """Elastic-foundation (Winkler) skin of the soft fingertip.
 
-Frames and units (DESIGN.md sections 2.4 and 4): node positions, normals and the wrench are
+Frames and units (docs/design.md 2 and 3): node positions, normals and the wrench are
 in the sensor frame (origin at the F/T sensor, z along the finger axis); each primitive is
 evaluated in its own local frame; the fingertip pose (``rotation``, ``position``) maps the
 sensor frame to the world frame. SI units: m, N, N m, s.
@@ -20,7 +20,7 @@ Model, per node i with area A_i on the undeformed outer surface:
   node, is where the object touches the skin, so the wrench carries the indentation offset
   the real sensor sees.
 
-Why anchors rather than the signed distance (DESIGN.md 2.2 and 2.4): the box's signed
+Why anchors rather than the signed distance (docs/design.md 3.2): the box's signed
 distance pushes a node out through the *nearest* face. Near an edge a node that came in
 through the top face soon lies nearer the side face than the top, and its force then
 points sideways and cancels the tilt that a truncated patch gives the wrench, which is what
