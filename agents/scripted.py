@@ -31,6 +31,7 @@ import argparse
 from dataclasses import dataclass
 
 import numpy as np
+from gymnasium import spaces
 
 from tactile_gym.envs.skills import (
     PrimitiveScales,
@@ -194,25 +195,32 @@ class SkillProber:
             )
 
 
-class _PrimitivePolicy:
-    """``PrimitiveProber`` with the ``get_action``/``reset`` interface of the other policies."""
+class _Policy:
+    """A prober with the ``get_action``/``reset`` interface of the other policies, taking dict
+    or flat observations (``observation_mode="flat"`` is unflattened with the env's space)."""
 
-    def __init__(self, scales: PrimitiveScales) -> None:
-        self.chooser = PrimitiveProber(scales)
+    def __init__(self, prober, space: spaces.Dict, primitive: bool) -> None:
+        self.prober = prober
+        self.space = space
+        self.primitive = primitive
 
     def reset(self) -> None:
-        self.chooser.reset()
+        self.prober.reset()
 
-    def get_action(self, obs: dict) -> np.ndarray:
-        return self.chooser.act(obs).astype(np.float32)
+    def get_action(self, obs) -> np.ndarray:
+        if not isinstance(obs, dict):
+            obs = spaces.unflatten(self.space, obs)
+        action = self.prober.act(obs) if self.primitive else self.prober.get_action(obs)
+        return action.astype(np.float32)
 
 
 def scripted_policy(env):
     """The scripted baseline of a v1 env (any id, either action mode); pass ``gym.make(...)``."""
     base = env.unwrapped
     if env.action_space.shape == (3,):
-        return _PrimitivePolicy(base.scales)
-    return SkillProber(base.config.max_translation, base.gate.config.dwell + 1)
+        return _Policy(PrimitiveProber(base.scales), base.dict_observation_space, True)
+    prober = SkillProber(base.config.max_translation, base.gate.config.dwell + 1)
+    return _Policy(prober, base.dict_observation_space, False)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -108,10 +108,15 @@ def test_flat_observation_variant(env_id):
     env = gym.make(env_id, observation_mode="flat")
     assert isinstance(env.observation_space, gym.spaces.Box)
     obs, _ = env.reset(seed=0)
-    size = sum(n for _, n in OBSERVATION_LAYOUT)
-    assert obs.shape == (size,) and env.observation_space.contains(obs)
     dict_obs, _ = gym.make(env_id).reset(seed=0)
-    np.testing.assert_array_equal(obs, np.concatenate([dict_obs[k] for k, _ in OBSERVATION_LAYOUT]))
+    extra = 3 if "primitive" in dict_obs else 0  # the primitive ids' last-primitive summary
+    assert obs.shape == (sum(n for _, n in OBSERVATION_LAYOUT) + extra,)
+    assert env.observation_space.contains(obs)
+    space = env.unwrapped.dict_observation_space
+    np.testing.assert_array_equal(obs, gym.spaces.flatten(space, dict_obs))
+    if not extra:
+        layout = np.concatenate([dict_obs[k] for k, _ in OBSERVATION_LAYOUT])
+        np.testing.assert_array_equal(obs, layout)
     env.close()
 
 

@@ -96,7 +96,10 @@ def test_round_trip_recovers_point_normal_and_moments(name, model):
 
 
 def test_hard_model_keeps_the_pitch_and_edge_matches_paper_formula():
-    """With r on the line of action q = pitch f, so e = +-normalise(n x q_t) (docs/design.md 4.1)."""
+    """With r on the line of action q = pitch f, so e = +-normalise(n x q_t).
+
+    See docs/design.md 4.1.
+    """
     r, n = CONTACTS["sphere_mid"]
     f = pressing_force(n, 5.0, math.radians(15), 1.0)
     pitch = 3e-4  # m

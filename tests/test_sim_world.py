@@ -81,7 +81,7 @@ def _apply_for(w, o, force, point, seconds):
 
 
 def test_holding_friction_resists_a_press_but_not_a_push():
-    """docs/design.md 3.3: a 5 N press mostly along -z on the rim holds; a sideways push turns it."""
+    """docs/design.md 3.3: a 5 N press mostly along -z on the rim holds, a push turns it."""
     w = World()
     cfg = ObjectConfig.scissors()
     o = HingedObject(w, cfg)

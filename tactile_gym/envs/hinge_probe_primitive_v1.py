@@ -53,9 +53,11 @@ class HingeProbePrimitiveEnv(gym.Env):
 
     ## Observation Space, Rewards
 
-    As ``HingeProbeEnv``: the observation after the primitive, and the sum of the 6-D env's
-    rewards during it (so the return still telescopes to the error removed from the prior).
-    ``info`` adds ``primitive`` and ``steps`` (6-D steps the primitive took).
+    ``HingeProbeEnv``'s observation after the primitive, plus ``primitive``: the kind of the
+    last primitive (-1 probe, +1 turn, 0 none yet), whether it produced a measurement (0 or 1)
+    and the fraction of the episode's control steps it took. The reward is the sum of the 6-D
+    env's rewards during the primitive (so the return still telescopes to the error removed
+    from the prior). ``info`` adds ``primitive`` and ``steps`` (6-D steps the primitive took).
 
     ## Episode End
 
@@ -89,10 +91,24 @@ class HingeProbePrimitiveEnv(gym.Env):
             probe_along=check_number("probe_along", probe_along, 0.0, 0.05),
             turn_distance=check_number("turn_distance", turn_distance, 0.0, 0.1, low_open=True),
         )
-        self.env = HingeProbeEnv(render_mode=render_mode, **kwargs)
+        # The skills read dict observations: the env underneath always makes them, and this
+        # env flattens its own when asked to.
+        self.observation_mode = kwargs.get("observation_mode", "dict")
+        self.env = HingeProbeEnv(render_mode=render_mode, **{**kwargs, "observation_mode": "dict"})
         self.render_mode = render_mode
         self.metadata = self.env.metadata
-        self.observation_space = self.env.observation_space
+        self.dict_observation_space = spaces.Dict(
+            {
+                **self.env.dict_observation_space.spaces,
+                "primitive": spaces.Box(
+                    np.array([-1.0, 0.0, 0.0], np.float32), np.ones(3, np.float32)
+                ),
+            }
+        )
+        if self.observation_mode == "flat":
+            self.observation_space = spaces.flatten_space(self.dict_observation_space)
+        else:
+            self.observation_space = self.dict_observation_space
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
         self._obs = None
 
@@ -107,7 +123,7 @@ class HingeProbePrimitiveEnv(gym.Env):
         self._frame = ProbeFrame()
         self._primitives = 0
         self._over = False
-        return obs, info
+        return self._observation(np.zeros(3)), info
 
     def step(self, action):
         if self._obs is None:
@@ -129,6 +145,7 @@ class HingeProbePrimitiveEnv(gym.Env):
             self.scales,
         )
         total, terms, steps = 0.0, {}, 0
+        before = self._obs["progress"][3]
         terminated = truncated = False
         info: dict = {}
         while skills and not (terminated or truncated):
@@ -151,8 +168,19 @@ class HingeProbePrimitiveEnv(gym.Env):
         self._primitives += 1
         truncated = truncated or (self._primitives >= self.max_primitives and not terminated)
         self._over = terminated or truncated
+        measured = float(self._obs["progress"][3] > before)
+        summary = np.array(
+            [1.0 if name == "turn" else -1.0, measured, steps / self.env.config.max_steps]
+        )
         info = {**info, **terms, "primitive": name, "steps": steps}
-        return self._obs, total, terminated, truncated, info
+        return self._observation(summary), total, terminated, truncated, info
+
+    def _observation(self, primitive: np.ndarray):
+        """The 6-D env's observation plus what the last primitive was and did."""
+        obs = {**self._obs, "primitive": primitive.astype(np.float32)}
+        if self.observation_mode == "flat":
+            return spaces.flatten(self.dict_observation_space, obs)
+        return obs
 
     def render(self):
         return self.env.render()

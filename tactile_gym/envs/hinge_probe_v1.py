@@ -498,6 +498,11 @@ class HingeProbeEnv(gym.Env):
         return self._scene
 
     @property
+    def dict_observation_space(self) -> spaces.Dict:
+        """The observation as a ``Dict`` (what ``observation_mode="flat"`` flattens)."""
+        return self._dict_space
+
+    @property
     def axis_estimate(self) -> AxisEstimate:
         """The current estimate: the prior until the estimator has one."""
         return self._estimate
