@@ -68,37 +68,56 @@ class PressAndWiggle(Adversary):
         return np.r_[self.rng.normal(0, 0.02, 3), self.rng.normal(0, 0.02, 3)]
 
 
-class ObliqueRetouch(Adversary):
+class PressCycle(Adversary):
+    """Aim, then run ``phases`` in turn (each a method returning an action, or None when it is
+    done), and aim again: by default press along ``self.d`` to about 5 N, hold, lift."""
+
+    phases = ("press", "hold", "lift")
+
+    def _act(self, obs):
+        f = self.force(obs)
+        if getattr(self, "state", "aim") == "aim":
+            self.aim()
+            self.state, self.n = self.phases[0], 0
+        while True:
+            self.n += 1
+            action = getattr(self, "_" + self.state)(f)
+            if action is not None:
+                return action
+            following = self.phases.index(self.state) + 1
+            if following == len(self.phases):
+                self.state = "aim"
+                return self.after_lift()
+            self.state, self.n = self.phases[following], 0
+
+    def _press(self, f):
+        if f < 4.8 and self.n < 40:
+            return np.r_[self.d * (0.25 if f < 0.1 else 0.08), 0, 0, 0]
+        return None
+
+    def _hold(self, f):
+        return np.zeros(6) if self.n < 7 else None
+
+    def _lift(self, f):
+        return np.r_[0, 0, 0.5, 0, 0, 0] if f > 0.05 or self.n < 3 else None
+
+    def after_lift(self):
+        return np.zeros(6)
+
+
+class ObliqueRetouch(PressCycle):
     """Press along a random direction off vertical (half of the presses within 2 deg, where
     the gate's thresholds are tested; the rest up to 15 deg) to about 5 N, hold, lift, move a
     little, press again: re-touches and oblique presses."""
 
-    def _act(self, obs):
-        f = self.force(obs)
-        state = getattr(self, "state", "aim")
-        if state == "aim":
-            small = self.rng.random() < 0.5
-            tilt = np.deg2rad(self.rng.uniform(0, 2) if small else self.rng.uniform(2, 15))
-            az = self.rng.uniform(-np.pi, np.pi)
-            self.d = np.array([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), -np.cos(tilt)])
-            self.state, self.n = "press", 0
-        if self.state == "press":
-            self.n += 1
-            if f < 4.8 and self.n < 40:
-                return np.r_[self.d * (0.25 if f < 0.1 else 0.08), 0, 0, 0]
-            self.state, self.n = "hold", 0
-        if self.state == "hold":
-            self.n += 1
-            if self.n < 7:
-                return np.zeros(6)
-            self.state, self.n = "lift", 0
-        if self.state == "lift":
-            self.n += 1
-            if f > 0.05 or self.n < 3:
-                return np.r_[0, 0, 0.5, 0, 0, 0]
-            self.state = "aim"
-            return np.r_[self.rng.normal(0, 0.4, 2), 0, 0, 0, 0]
-        return np.zeros(6)
+    def aim(self):
+        small = self.rng.random() < 0.5
+        tilt = np.deg2rad(self.rng.uniform(0, 2) if small else self.rng.uniform(2, 15))
+        az = self.rng.uniform(-np.pi, np.pi)
+        self.d = np.array([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), -np.cos(tilt)])
+
+    def after_lift(self):
+        return np.r_[self.rng.normal(0, 0.4, 2), 0, 0, 0, 0]
 
 
 class PressAndSlide(Adversary):
@@ -133,44 +152,24 @@ class DragThenPress(Adversary):
         return np.r_[0, 0, -0.05, 0, 0, 0]
 
 
-class ShearThenPress(Adversary):
+class ShearThenPress(PressCycle):
     """Touch lightly, drag the barely loaded skin sideways (loading its sticking springs),
     then press straight down to about 5 N and hold: a pre-sheared skin under a clean-looking
     press. Then lift and do it again."""
 
-    def _act(self, obs):
-        f = self.force(obs)
-        state = getattr(self, "state", "aim")
-        if state == "aim":
-            az = self.rng.uniform(-np.pi, np.pi)
-            self.d = np.array([np.cos(az), np.sin(az)]) * self.rng.uniform(0.02, 0.15)
-            self.light = self.rng.uniform(0.03, 0.3)
-            self.state, self.n = "touch", 0
-        if self.state == "touch":
-            self.n += 1
-            if f < self.light and self.n < 40:
-                return np.r_[0, 0, -0.03, 0, 0, 0]
-            self.state, self.n = "shear", 0
-        if self.state == "shear":
-            self.n += 1
-            if self.n < 5:
-                return np.r_[self.d, 0, 0, 0, 0]
-            self.state, self.n = "press", 0
-        if self.state == "press":
-            self.n += 1
-            if f < 4.8 and self.n < 40:
-                return np.r_[0, 0, -0.08, 0, 0, 0]
-            self.state, self.n = "hold", 0
-        if self.state == "hold":
-            self.n += 1
-            if self.n < 7:
-                return np.zeros(6)
-            self.state, self.n = "lift", 0
-        self.n += 1
-        if f > 0.05 or self.n < 3:
-            return np.r_[0, 0, 0.5, 0, 0, 0]
-        self.state = "aim"
-        return np.zeros(6)
+    phases = ("touch", "shear", "press", "hold", "lift")
+
+    def aim(self):
+        az = self.rng.uniform(-np.pi, np.pi)
+        self.shear = np.array([np.cos(az), np.sin(az)]) * self.rng.uniform(0.02, 0.15)
+        self.light = self.rng.uniform(0.03, 0.3)
+        self.d = np.array([0.0, 0.0, -1.0])
+
+    def _touch(self, f):
+        return np.r_[0, 0, -0.03, 0, 0, 0] if f < self.light and self.n < 40 else None
+
+    def _shear(self, f):
+        return np.r_[self.shear, 0, 0, 0, 0] if self.n < 5 else None
 
 
 ADVERSARIES = (
@@ -198,49 +197,42 @@ def _errors_against_both_long_edges(u, m):
     return best[1], best[0]
 
 
-def attack(env_id: str, episodes: int, steps: int, seed: int = 0):
-    """Run the adversaries; return (edge errors deg, distances m) of every acceptance."""
-    env = gym.make(env_id, max_steps=steps)
-    u = env.unwrapped
+def _judge(env, low, episodes: int, seed: int, policy) -> tuple[np.ndarray, np.ndarray]:
+    """Run ``policy(k)`` (a function of the observation) for episodes ``k``; return the edge
+    errors (deg) and line distances (m) of every measurement ``low`` (the 6-D env) accepts."""
     angles, distances = [], []
-    rng = np.random.default_rng(seed)
     for k in range(episodes):
         obs, _ = env.reset(seed=seed + k)
-        adversary = ADVERSARIES[k % len(ADVERSARIES)](env, rng)
-        done = False
-        while not done:
-            before = len(u.measurements)
-            obs, _, terminated, truncated, _ = env.step(adversary.act(obs))
-            done = terminated or truncated
-            # Judge each new measurement against the link as it is when accepted.
-            for m in u.measurements[before:]:
-                angle, distance = _errors_against_both_long_edges(u, m)
-                angles.append(angle)
-                distances.append(distance)
-    env.close()
-    return np.array(angles), np.array(distances)
-
-
-def attack_primitives(env_id: str, episodes: int, seed: int = 0):
-    """Random primitives (with their parameters) on a primitive id; same judgement."""
-    env = gym.make(env_id, max_steps=300)
-    base = env.unwrapped
-    low = base.env
-    angles, distances = [], []
-    for k in range(episodes):
-        env.reset(seed=seed + k)
-        env.action_space.seed(seed + k)
+        act = policy(k)
         done = False
         while not done:
             before = len(low.measurements)
-            _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+            obs, _, terminated, truncated, _ = env.step(act(obs))
             done = terminated or truncated
+            # Judge each new measurement against the link as it is when accepted.
             for m in low.measurements[before:]:
                 angle, distance = _errors_against_both_long_edges(low, m)
                 angles.append(angle)
                 distances.append(distance)
     env.close()
     return np.array(angles), np.array(distances)
+
+
+def attack(env_id: str, episodes: int, steps: int, seed: int = 0):
+    """The adversaries in turn on a 6-D id (module docstring)."""
+    env = gym.make(env_id, max_steps=steps)
+    rng = np.random.default_rng(seed)
+    return _judge(env, env.unwrapped, episodes, seed,
+                  lambda k: ADVERSARIES[k % len(ADVERSARIES)](env, rng).act)  # fmt: skip
+
+
+def attack_primitives(env_id: str, episodes: int, seed: int = 0):
+    """Random primitives (with their parameters) on a primitive id; same judgement."""
+    env = gym.make(env_id, max_steps=300)
+    env.action_space.seed(seed)
+    return _judge(
+        env, env.unwrapped.env, episodes, seed, lambda k: lambda obs: env.action_space.sample()
+    )
 
 
 def _check(angles, distances, at_least: int):
