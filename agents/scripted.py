@@ -33,14 +33,9 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
-from tactile_gym.envs.skills import (
-    PrimitiveScales,
-    ProbeFrame,
-    TouchReading,
-    primitive_skills,
-)
+from tactile_gym.envs.skills import PrimitiveExecutor, PrimitiveScales, TouchReading
 
-__all__ = ["PrimitiveProber", "ProberConfig", "SkillProber", "scripted_policy"]
+__all__ = ["PrimitiveProber", "ProberConfig", "SkillProber", "executor_for", "scripted_policy"]
 
 
 @dataclass(frozen=True)
@@ -153,46 +148,27 @@ class SkillProber:
     """``PrimitiveProber``'s choices carried out step by step through the skills (6-D ids).
 
     Args:
-        max_translation: the env's translation for an action of 1, m.
-        dwell: still steps of a probe (the gate's dwell plus one).
-        scales: primitive scales (the primitive env's defaults).
+        executor: runs the primitives (the 6-D env's scales, dwell and budget).
         config: protocol parameters.
     """
 
-    def __init__(
-        self,
-        max_translation: float,
-        dwell: int,
-        scales: PrimitiveScales = PrimitiveScales(),  # noqa: B008
-        config: ProberConfig = ProberConfig(),  # noqa: B008
-    ) -> None:
-        self.max_translation = float(max_translation)
-        self.dwell = int(dwell)
-        self.chooser = PrimitiveProber(scales, config)
+    def __init__(self, executor: PrimitiveExecutor, config: ProberConfig = ProberConfig()) -> None:  # noqa: B008
+        self.executor = executor
+        self.chooser = PrimitiveProber(executor.scales, config)
         self.reset()
 
     def reset(self) -> None:
         """Start a new episode."""
         self.chooser.reset()
-        self._frame = ProbeFrame()
-        self._skills: list = []
+        self.executor.reset()
 
     def get_action(self, obs: dict) -> np.ndarray:
         """The next 6-D action for a dict observation."""
-        reading = TouchReading.from_obs(obs)
-        while True:
-            while self._skills:
-                action = self._skills[0].act(reading)
-                if action is not None:
-                    return action.astype(np.float32)
-                self._skills.pop(0)
-            _, self._skills = primitive_skills(
-                self.chooser.act(obs),
-                self._frame,
-                self.max_translation,
-                self.dwell,
-                self.chooser.scales,
-            )
+        action = self.executor.act(obs)
+        while action is None:
+            self.executor.start(self.chooser.act(obs), obs)
+            action = self.executor.act(obs)
+        return action.astype(np.float32)
 
 
 class _Policy:
@@ -219,8 +195,15 @@ def scripted_policy(env):
     base = env.unwrapped
     if env.action_space.shape == (3,):
         return _Policy(PrimitiveProber(base.scales), base.dict_observation_space, True)
-    prober = SkillProber(base.config.max_translation, base.gate.config.dwell + 1)
-    return _Policy(prober, base.dict_observation_space, False)
+    return _Policy(SkillProber(executor_for(base)), base.dict_observation_space, False)
+
+
+def executor_for(env) -> PrimitiveExecutor:
+    """A primitive executor for a 6-D ``HingeProbeEnv`` (pass ``env.unwrapped``), with the
+    primitive ids' default scales."""
+    return PrimitiveExecutor(
+        env.config.max_translation, env.gate.config.dwell + 1, env.config.max_steps
+    )
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -9,13 +9,7 @@ import numpy as np
 from gymnasium import spaces
 
 from tactile_gym.envs.hinge_probe_v1 import HingeProbeEnv
-from tactile_gym.envs.skills import (
-    PRIMITIVES,
-    PrimitiveScales,
-    ProbeFrame,
-    TouchReading,
-    primitive_skills,
-)
+from tactile_gym.envs.skills import PRIMITIVES, PrimitiveExecutor, PrimitiveScales
 from tactile_gym.validation import check_int, check_number
 
 __all__ = ["HingeProbePrimitiveEnv", "PRIMITIVES"]
@@ -110,6 +104,12 @@ class HingeProbePrimitiveEnv(gym.Env):
         else:
             self.observation_space = self.dict_observation_space
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+        self._executor = PrimitiveExecutor(
+            self.env.config.max_translation,
+            self.env.gate.config.dwell + 1,
+            self.env.config.max_steps,
+            self.scales,
+        )
         self._obs = None
 
     @property
@@ -120,10 +120,10 @@ class HingeProbePrimitiveEnv(gym.Env):
         super().reset(seed=seed)
         obs, info = self.env.reset(seed=seed, options=options)
         self._obs = obs
-        self._frame = ProbeFrame()
+        self._executor.reset()
         self._primitives = 0
         self._over = False
-        return self._observation(np.zeros(3)), info
+        return self._observation(self._executor.summary), info
 
     def step(self, action):
         if self._obs is None:
@@ -137,43 +137,25 @@ class HingeProbePrimitiveEnv(gym.Env):
             raise ValueError(f"action must have shape (3,), got {action.shape}")
         if not np.all(np.isfinite(action)):
             raise ValueError(f"action must be finite, got {action.tolist()}")
-        name, skills = primitive_skills(
-            np.clip(action.astype(float), -1.0, 1.0),
-            self._frame,
-            self.env.config.max_translation,
-            self.env.gate.config.dwell + 1,
-            self.scales,
-        )
+        name = self._executor.start(action, self._obs)
         total, terms, steps = 0.0, {}, 0
-        before = self._obs["progress"][3]
         terminated = truncated = False
         info: dict = {}
-        while skills and not (terminated or truncated):
-            reading = TouchReading.from_obs(self._obs)
-            low = skills[0].act(reading)
+        while not (terminated or truncated):
+            low = self._executor.act(self._obs)
             if low is None:
-                skills.pop(0)
-                continue
+                break
             self._obs, reward, terminated, truncated, info = self.env.step(low.astype(np.float32))
             steps += 1
             total += reward
             for key in ("reward_error_reduction", "reward_force_penalty", "reward_action_cost"):
                 terms[key] = terms.get(key, 0.0) + info[key]
-        if steps == 0:
-            # Nothing to do (e.g. a turn before any edge is known): one still step, so that
-            # every primitive costs time.
-            self._obs, total, terminated, truncated, info = self.env.step(np.zeros(6, np.float32))
-            terms = {k: info[k] for k in info if k.startswith("reward_")}
-            steps = 1
+        self._executor.finish(self._obs)  # also when the episode's end cut it short
         self._primitives += 1
         truncated = truncated or (self._primitives >= self.max_primitives and not terminated)
         self._over = terminated or truncated
-        measured = float(self._obs["progress"][3] > before)
-        summary = np.array(
-            [1.0 if name == "turn" else -1.0, measured, steps / self.env.config.max_steps]
-        )
         info = {**info, **terms, "primitive": name, "steps": steps}
-        return self._observation(summary), total, terminated, truncated, info
+        return self._observation(self._executor.summary), total, terminated, truncated, info
 
     def _observation(self, primitive: np.ndarray):
         """The 6-D env's observation plus what the last primitive was and did."""

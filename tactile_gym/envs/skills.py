@@ -35,6 +35,7 @@ __all__ = [
     "Drag",
     "Lift",
     "Move",
+    "PrimitiveExecutor",
     "PrimitiveScales",
     "Press",
     "ProbeFrame",
@@ -326,3 +327,86 @@ def primitive_skills(
         if frame.edge is not None:
             skills.append(Drag(max_translation, frame, action[1] * scales.turn_distance))
     return name, skills
+
+
+class PrimitiveExecutor:
+    """Carries out probing primitives on the 6-D env one control step at a time.
+
+    The primitive ids run each primitive to completion with it; a policy that chooses
+    primitives (the scripted prober, or a policy learned on a primitive id) drives a 6-D id
+    through it. After a primitive, ``summary`` describes it as the primitive ids observe it.
+
+    Args:
+        max_translation: the env's translation for an action of 1, m.
+        dwell: still steps of a probe (the gate's dwell plus one).
+        max_steps: the episode's control steps, to express a primitive's cost.
+        scales: what a primitive action of 1 means.
+    """
+
+    def __init__(
+        self,
+        max_translation: float,
+        dwell: int,
+        max_steps: int,
+        scales: PrimitiveScales = PrimitiveScales(),  # noqa: B008 - frozen dataclass
+    ) -> None:
+        self.max_translation = float(max_translation)
+        self.dwell = int(dwell)
+        self.max_steps = int(max_steps)
+        self.scales = scales
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the probing so far (call at every episode start)."""
+        self.frame = ProbeFrame()
+        self.name: str | None = None
+        #: (kind: -1 probe, +1 turn, 0 none yet; 1 if it was measured; share of the budget).
+        self.summary = np.zeros(3)
+        self._skills: list[Skill] = []
+
+    @property
+    def running(self) -> bool:
+        return self.name is not None
+
+    def start(self, action: np.ndarray, obs: dict) -> str:
+        """Begin the primitive a normalised action (3,) asks for; returns its name."""
+        self.name, self._skills = primitive_skills(
+            np.clip(np.asarray(action, dtype=float), -1.0, 1.0),
+            self.frame,
+            self.max_translation,
+            self.dwell,
+            self.scales,
+        )
+        self._steps = 0
+        self._count = float(obs["progress"][3])
+        return self.name
+
+    def act(self, obs: dict) -> np.ndarray | None:
+        """The next 6-D action of the running primitive, or None once it is done."""
+        if self.name is None:
+            return None
+        reading = TouchReading.from_obs(obs)
+        while self._skills:
+            action = self._skills[0].act(reading)
+            if action is not None:
+                self._steps += 1
+                return action
+            self._skills.pop(0)
+        if not self._steps:
+            # Nothing to do (e.g. a turn before any edge is known): one still step, so that
+            # every primitive costs time.
+            self._steps = 1
+            return np.zeros(6)
+        self.finish(obs)
+        return None
+
+    def finish(self, obs: dict) -> None:
+        """End the running primitive (done, or cut short by the episode's end): set
+        ``summary``."""
+        if self.name is None:
+            return
+        measured = float(obs["progress"][3] > self._count)
+        kind = 1.0 if self.name == "turn" else -1.0
+        self.summary = np.array([kind, measured, self._steps / self.max_steps])
+        self.name = None
+        self._skills = []
