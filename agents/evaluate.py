@@ -32,7 +32,7 @@ import yaml
 
 import tactile_gym
 
-from .scripted import scripted_policy
+from .scripted import executor_for, scripted_policy
 from .train import DEFAULT_ENV_ID, KeyValue, make_env, torch_threads, vecnormalize_path
 
 #: Position error reported while there is no estimate, m (the task's E_max).
@@ -40,6 +40,8 @@ NO_ESTIMATE_ERROR = 0.1
 #: The "steps to reach" threshold of the table, m.
 REACH_THRESHOLD = 0.005
 BUILTIN_POLICIES = ("random", "scripted")
+#: Keywords of the primitive ids that the 6-D env does not take.
+PRIMITIVE_KEYWORDS = ("max_primitives", "probe_across", "probe_along", "turn_distance")
 
 
 class RandomPolicy:
@@ -90,6 +92,44 @@ class ModelPolicy:
             obs = self.normalizer.normalize_obs(obs)
         action, _ = self.model.predict(obs, deterministic=True)
         return action
+
+
+class PrimitiveModelPolicy:
+    """A model learned on a primitive id, driving the matching 6-D id: it chooses primitives
+    and the same probing skills carry them out, one control step at a time (hierarchical).
+
+    Args:
+        path: the model, from a run on a ``...Primitive-v1`` id.
+        env: the 6-D env to act on (dict observations).
+    """
+
+    def __init__(self, path: str | Path, env: gym.Env) -> None:
+        run = model_run(Path(path))
+        primitive_env = gym.make(run["env_id"], **run["env_kwargs"])
+        self.inner = ModelPolicy(path, primitive_env)
+        self.space = primitive_env.unwrapped.dict_observation_space
+        self.flat = primitive_env.unwrapped.observation_mode == "flat"
+        primitive_env.close()
+        self.executor = executor_for(env.unwrapped)
+
+    def reset(self) -> None:
+        self.executor.reset()
+
+    def get_action(self, obs: dict) -> np.ndarray:
+        action = self.executor.act(obs)
+        while action is None:
+            view = {**obs, "primitive": self.executor.summary.astype(np.float32)}
+            if self.flat:
+                view = gym.spaces.flatten(self.space, view)
+            self.executor.start(self.inner.get_action(view), obs)
+            action = self.executor.act(obs)
+        return action.astype(np.float32)
+
+
+def is_primitive_model_on_6d(name: str, env_id: str) -> bool:
+    """Whether a model learned on a primitive id is to act on a 6-D id."""
+    trained_on = model_run(Path(name))["env_id"] or ""
+    return "Primitive" in trained_on and "Primitive" not in env_id
 
 
 @dataclass
@@ -237,6 +277,9 @@ def resolve_policies(
     specs = []
     for name, label in zip(policies, policy_labels(policies)):
         kwargs = dict(runs[name]["env_kwargs"]) if name in runs else {}
+        if name in runs and is_primitive_model_on_6d(name, env_id):
+            # The primitive env's own keywords do not apply to the 6-D env it drives.
+            kwargs = {k: v for k, v in kwargs.items() if k not in PRIMITIVE_KEYWORDS}
         kwargs.update(env_kwargs or {})
         specs.append(PolicySpec(label, name, env_id, kwargs))
     return specs
@@ -249,6 +292,8 @@ def make_policy(name: str, env: gym.Env):
     if name == "scripted":
         return scripted_policy(env)
     if Path(name).is_file():
+        if is_primitive_model_on_6d(name, env.spec.id if env.spec else ""):
+            return PrimitiveModelPolicy(name, env)
         return ModelPolicy(name, env)
     raise ValueError(
         f"policy must be one of {BUILTIN_POLICIES} or an existing model path, got {name!r}"

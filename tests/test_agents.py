@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import yaml
@@ -312,3 +313,23 @@ def test_core_never_imports_ray():
         "assert 'ray' not in sys.modules, 'ray was imported'\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def test_a_primitive_policy_drives_the_6d_id(tmp_path):
+    """A model learned on a primitive id acts on the matching 6-D id through the same skills."""
+    pytest.importorskip("stable_baselines3")
+    run_dir = train.main(
+        ["--algo", "ppo", "--env", "tactile_gym/HingeProbePrimitive-v1", "--n-timesteps", "32",
+         "--n-envs", "1", "--log-folder", str(tmp_path), "--eval-freq", "0",
+         "--checkpoint-freq", "0", "--no-progress-bar",
+         "--config", str(_tiny_config(tmp_path, "ppo")), "--env-kwargs", "max_primitives:64"]
+    )  # fmt: skip
+    model = str(run_dir / "final_model.zip")
+    [spec] = evaluate.resolve_policies([model], env_id="tactile_gym/HingeProbe-v1")
+    assert "max_primitives" not in spec.env_kwargs
+    env = gym.make("tactile_gym/HingeProbe-v1", max_steps=60)
+    policy = evaluate.make_policy(model, env)
+    assert isinstance(policy, evaluate.PrimitiveModelPolicy)
+    record = evaluate.run_episode(env, policy, seed=1000)
+    assert len(record.position_error) == 61  # a 6-D action every control step
+    env.close()
