@@ -61,6 +61,8 @@ from tactile_gym.estimation.axis import (
 )
 from tactile_gym.estimation.robust import (
     CHI2_99,
+    MAD_TO_STD,
+    OUTLIER_GATE,
     check_loss,
     consensus,
     loss_cost,
@@ -73,6 +75,8 @@ from tactile_gym.spatial import orient_edges
 __all__ = ["fit_axis_3d"]
 
 _DEFAULT_PARALLEL_TOL = math.radians(1.0)
+# Least angle between the edges of a consensus triple, rad (see _consensus).
+_DISTINCT_TOL = math.radians(0.5)
 _VAR_FLOOR = 1e-24
 
 
@@ -113,10 +117,14 @@ def fit_axis_3d(
         f_scale: residual level where the robust loss starts to bend, in standard
             deviations when stds are given (default 2), else in metres (default: 2 x a
             MAD-based noise estimate from the initial guess).
-        parallel_tol: the edges count as parallel to the axis (eq. 9-10 model) when all of
-            them (robust losses: two thirds) lie within
+        parallel_tol: the model of edges parallel to the axis (eq. 9-10) is fitted too
+            when all the edges (robust losses: two thirds) lie within
             ``max(parallel_tol, 4 * s)`` rad of their mean direction, where s is the median
-            over the measurements of the edge std in its worst direction.
+            over the measurements of the edge std in its worst direction; it is chosen
+            unless the general model explains more of the measurements it rejects than
+            the other way round (at least two; see ``_prefer_parallel``). Edges parallel
+            to each other need not be parallel to the axis: measurements taken at one
+            link angle.
         resolve_signs: orient each edge like the best-aligned of the previous
             ``SIGN_LOOKBACK`` (already oriented) edges; a wild edge then cannot flip all
             that follow. Pass False for edges already oriented consistently.
@@ -225,18 +233,35 @@ class _Solution:
 
 def _fit_state(x, e, w, noise, loss, f_scale, parallel_tol):
     """The estimate of validated, oriented data and the :class:`_Solution` of a
-    general-case fit (else None)."""
+    general-case fit (else None).
+
+    When enough edges lie near their mean direction (all of them, robust losses: two
+    thirds) the parallel model (eq. 9-10) is fitted too, and the models are compared (see
+    :func:`_prefer_parallel`): edges parallel to *each other* are not enough, as when most
+    measurements were taken at one link angle.
+    """
     n = x.shape[0]
     if n < 3:
         return degenerate_estimate("3d", n, planar=False), None
-    prob = _Problem(x, e, w, noise, loss, f_scale)
     tol = parallel_tol
     if noise is not None:
         tol = max(tol, 4.0 * float(np.median(noise.worst_edge_std())))
     mean_dir, frac = _parallel_fraction(e, tol)
-    need = 1.0 if loss == "linear" else 2.0 / 3.0
-    if frac >= need:
-        return _fit_parallel(prob, mean_dir), None
+    est, sol = _fit_general_state(x, e, w, noise, loss, f_scale)
+    if frac < (1.0 if loss == "linear" else 2.0 / 3.0):
+        return est, sol
+    est_par = _fit_parallel(_Problem(x, e, w, noise, loss, f_scale), mean_dir)
+    if est_par.degenerate or not (
+        est.degenerate or _prefer_parallel(_Problem(x, e, w, noise, loss, f_scale), sol, est_par)
+    ):
+        return est, sol
+    return est_par, None
+
+
+def _fit_general_state(x, e, w, noise, loss, f_scale):
+    """:func:`_fit_state`'s general-case fit: a consensus first (robust losses, N >= 6)."""
+    n = x.shape[0]
+    prob = _Problem(x, e, w, noise, loss, f_scale)
     mask = np.ones(n, dtype=bool)
     if loss != "linear" and n >= 6:
         found = _consensus(prob)
@@ -335,9 +360,23 @@ def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
     A per-residual robust loss is not enough here: for nearly planar motion an axis lying
     in the plane of the contacts zeroes every reciprocal-product residual, and wild edges
     then make that wrong axis cheaper under L1-like losses.
+
+    A triple is a candidate only when its edges are pairwise more than
+    ``max(0.5 deg, 3 hypot(s_i, s_j))`` apart (s: the edge std in its worst direction):
+    two lines measured at one link angle are one line twice (parallel edges of a general
+    axis come from the same angle), and the triple's axis would be fitted to their noise.
+    Such an axis explains every measurement at that angle; so that it does not win the
+    inlier count when most were taken there, each measurement counts (and is drawn into
+    triples) with the share ``1 / (number of edges within that angle of it)``.
     """
+    s = np.zeros(prob.n) if prob.noise is None else prob.noise.worst_edge_std()
+    tol = np.maximum(_DISTINCT_TOL, 3.0 * np.hypot(s[:, None], s[None, :]))
+    same = np.abs(prob.e @ prob.e.T) >= np.cos(tol)
 
     def fit_triple(idx):
+        i, j, k = idx.tolist()
+        if same[i, j] or same[i, k] or same[j, k]:
+            return None
         sub = _Problem.__new__(_Problem)
         sub.__dict__.update(prob.__dict__)
         sub.x, sub.n = prob.x[idx], 3
@@ -350,7 +389,14 @@ def _consensus(prob: _Problem) -> tuple[np.ndarray, np.ndarray] | None:
     def sq_norms(fit):
         return np.minimum(*_sign_norms(prob, *fit, raw=True))
 
-    found = consensus(prob.n, fit_triple, sq_norms, 2, whitened=prob.noise is not None)
+    found = consensus(
+        prob.n,
+        fit_triple,
+        sq_norms,
+        2,
+        whitened=prob.noise is not None,
+        shares=1.0 / same.sum(axis=1),
+    )
     if found is None:
         return None
     inliers, fit, scale = found
@@ -367,6 +413,18 @@ def _sign_norms(
     scaled so that the median of the better of the two is 0.5 (a noise level from the
     residuals of a fitted axis), unless ``raw``.
     """
+    (k1, k2), (f1, f2) = _sign_residuals(prob, u, p, k, c, wh)
+    keep = k1 * k1 + k2 * k2
+    flipped = f1 * f1 + f2 * f2
+    if prob.noise is None and not raw:
+        scale = 0.5 / max(float(np.median(np.minimum(keep, flipped))), 1e-30)
+        keep, flipped = keep * scale, flipped * scale
+    return keep, flipped
+
+
+def _sign_residuals(prob: _Problem, u, p, k, c, wh=None):
+    """Whitened residual pairs ``(z1, z2)``, each (N,), with each edge as oriented and
+    flipped (whitening as for :func:`_sign_norms`)."""
     if wh is None:
         wh = (
             _whitening_general(prob, u, p)
@@ -379,26 +437,82 @@ def _sign_norms(
     for sgn in (1.0, -1.0):
         r1 = sgn * d - k
         r2 = sgn * a - c
-        z1 = wh[:, 0] * r1
-        z2 = wh[:, 1] * r1 + wh[:, 2] * r2
-        out.append(z1 * z1 + z2 * z2)
-    keep, flipped = out
-    if prob.noise is None and not raw:
-        scale = 0.5 / max(float(np.median(np.minimum(keep, flipped))), 1e-30)
-        keep, flipped = keep * scale, flipped * scale
-    return keep, flipped
+        out.append((wh[:, 0] * r1, wh[:, 1] * r1 + wh[:, 2] * r2))
+    return out
+
+
+def _prefer_parallel(prob: _Problem, sol: _Solution, est_par: AxisEstimate) -> bool:
+    """Whether the parallel model (eq. 9-10) holds: unless more of the edges it rejects
+    are explained by the general model than the other way round.
+
+    A measurement contradicts a model when its squared whitened residual norm under it is
+    beyond the 5-sigma gate (``OUTLIER_GATE``; 3 degrees of freedom under the parallel
+    model: radial distance and the edge's misalignment, 2 under the general one) while the
+    other model explains it (within the 99 % quantile). The general model wins when it is
+    contradicted less often than the parallel one, and the parallel one at least twice:
+    with the group of parallel edges, those are the three distinct edge lines a general
+    axis needs. Edges parallel to each other but not to the axis (most measurements taken
+    at one link angle) make every measurement taken elsewhere contradict the parallel
+    model; a wild edge is wild under both models and does not count, unless a wrong
+    general fit happens to pass through it, and then the parallel model's edges contradict
+    that fit many times over.
+
+    Why not a likelihood-ratio test: the parallel model is the general one at theta = 0,
+    where the general model is singular (its distance ``|k| / sin(theta)`` is undefined);
+    the ratio there does not follow its chi-square law (on parallel data the general model
+    fits far closer than its N + 1 extra parameters predict, increasingly with N).
+
+    Without stds the test needs a noise model, estimated robustly from what is noise under
+    either model: the contact-point noise from the parallel model's radial residuals (the
+    points of one edge line lie at one distance from an axis parallel to it), the edge
+    noise from the angles of the edges to the parallel model's axis (Rayleigh median).
+    Each edge takes its better sign under the general model (its consensus may have set
+    some aside).
+
+    Args:
+        prob: the problem of all measurements, edges as oriented for the fits.
+        sol: the general model's solution.
+        est_par: the parallel model's estimate.
+    """
+    u_par = est_par.direction
+    p_par = est_par.point - prob.centre
+    if prob.noise is None:
+        wv = prob.x - p_par
+        wp = wv - (wv @ u_par)[:, None] * u_par
+        radial = np.sqrt(np.einsum("ij,ij->i", wp, wp)) - est_par.distance
+        angle = np.arccos(np.minimum(np.abs(prob.e @ u_par), 1.0))
+        # Median of a Rayleigh variable: sigma sqrt(2 ln 2); the total edge std is
+        # sqrt(2) sigma.
+        edge_std = math.sqrt(2.0) * float(np.median(angle)) / math.sqrt(2.0 * math.log(2.0))
+        point_std = MAD_TO_STD * float(np.median(np.abs(radial)))
+        prob.noise = _Noise(np.full(prob.n, point_std), isotropic_edge_covs(prob.e, edge_std))
+    b1, b2 = _basis(u_par)
+    fun, _ = _residuals_parallel(prob, u_par, b1, b2)
+    z_par = fun(np.array([0.0, 0.0, p_par @ b1, p_par @ b2, est_par.distance]))
+    q_par = np.square(z_par).reshape(3, -1).sum(axis=0)
+    u = sol.u
+    p = sol.p - prob.centre
+    p = p - (p @ u) * u
+    (k1, k2), (f1, f2) = _sign_residuals(prob, u, p, sol.k, sol.c)
+    q_gen = np.minimum(k1 * k1 + k2 * k2, f1 * f1 + f2 * f2)
+    against_par = int(np.sum((q_par > OUTLIER_GATE[3]) & (q_gen < CHI2_99[2])))
+    against_gen = int(np.sum((q_gen > OUTLIER_GATE[2]) & (q_par < CHI2_99[3])))
+    return against_par < 2 or against_par <= against_gen
 
 
 def _parallel_fraction(e: np.ndarray, tol: float) -> tuple[np.ndarray, float]:
-    """Principal (sign-free) mean direction of the edges and the fraction within tol of it."""
-    vals, vecs = np.linalg.eigh(e.T @ e)
+    """Principal (sign-free) mean direction of the largest group of edges within tol of
+    one of them, and the fraction of all the edges within tol of that direction.
+
+    The group is found around the edge with the most others within tol: the principal
+    direction of all the edges would be dragged off by a few wild ones, beyond the tol of
+    every edge.
+    """
+    near = np.abs(e @ e.T) >= math.cos(tol)
+    group = near[int(np.argmax(near.sum(axis=1)))]
+    vals, vecs = np.linalg.eigh(e[group].T @ e[group])
     u = vecs[:, 2]
-    inside = np.abs(e @ u) >= math.cos(tol)
-    if inside.any() and not inside.all():
-        vals, vecs = np.linalg.eigh(e[inside].T @ e[inside])
-        u = vecs[:, 2]
-        inside = np.abs(e @ u) >= math.cos(tol)
-    return u, float(inside.mean())
+    return u, float(np.mean(np.abs(e @ u) >= math.cos(tol)))
 
 
 def _basis(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -713,9 +827,11 @@ def _finish_general(prob, u, p, k, c, wh) -> AxisEstimate:
     z, jm, b1, b2 = _linearise(prob, wh, u, p, k, c)
     f_scale = _resolve_f_scale(prob, u, p, k, c, wh)
     cov_local, cond = _covariance_local(prob, z, jm, 6, f_scale)
-    if cov_local is None:
+    # At theta = 0 (edges parallel to the axis, the parallel model's case) the distance
+    # d = |k| / sin(theta) is undefined.
+    if cov_local is None or not 1.0 - c * c > 1e-12:
         return degenerate_estimate("3d", prob.n, planar=False)
-    sin_t = math.sqrt(max(1.0 - c * c, 1e-300))
+    sin_t = math.sqrt(1.0 - c * c)
     d = abs(k) / sin_t
     # Geometric distance residual: (r1 - k) / sin(theta).
     r1 = np.einsum("ij,ij->i", prob.x - p, _cross(prob.e, u[None, :])) - k

@@ -57,7 +57,8 @@ class JointAxisEstimator:
       (default 3) measurements with at least three distinct edge directions in the x-y plane;
     * ``"3d"`` (any axis, see :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`): at least
       ``min_measurements`` (default 4) measurements with at least three distinct edge
-      directions, or edges all parallel (the axis parallel to the edge, eq. 9-10);
+      directions, or a fit that chose the parallel model (the axis parallel to the edges,
+      eq. 9-10; a noisy edge may count as a second direction);
 
     and the fit is not degenerate. Directions are distinct when more than
     ``max(0.5 deg, 3 edge_std)`` apart.
@@ -261,8 +262,6 @@ class JointAxisEstimator:
             if len(self._dirs) < 3:
                 return None
             return self._refit_planar()
-        if len(self._dirs) == 2:
-            return None
         est = None
         x = self._points[:n]
         noise = _Noise(self._point_std[:n].copy(), self._edge_noise[:n].copy())
