@@ -57,6 +57,46 @@ def loss_cost(z: np.ndarray, loss: str, f_scale: float) -> float:
     return 0.5 * f_scale * f_scale * float(rho.sum())
 
 
+def split_loss_cost(z: np.ndarray, m: int, loss: str, f_scale: float) -> float:
+    """:func:`loss_cost` of the first m whitened residuals (the measurements') plus the
+    least-squares cost of the rest (a prior's: robust losses never apply to them)."""
+    tail = z[m:]
+    return loss_cost(z[:m], loss, f_scale) + 0.5 * float(tail @ tail)
+
+
+def split_loss(loss: str, m: int):
+    """A callable ``loss`` for scipy's least_squares: ``loss`` on the first m residuals,
+    least squares on the rest (see :func:`split_loss_cost`).
+
+    scipy calls it with ``s = (f / f_scale)^2`` and takes ``(rho, rho', rho'')`` in s.
+    """
+
+    def rho(s: np.ndarray) -> np.ndarray:
+        out = np.empty((3, s.size))
+        out[0] = s
+        out[1] = 1.0
+        out[2] = 0.0
+        head = s[:m]
+        if loss == "soft_l1":
+            t = 1.0 + head
+            out[0, :m] = 2.0 * (np.sqrt(t) - 1.0)
+            out[1, :m] = t**-0.5
+            out[2, :m] = -0.5 * t**-1.5
+        elif loss == "huber":
+            far = head > 1.0
+            root = np.sqrt(np.where(far, head, 1.0))
+            out[0, :m] = np.where(far, 2.0 * root - 1.0, head)
+            out[1, :m] = np.where(far, 1.0 / root, 1.0)
+            out[2, :m] = np.where(far, -0.5 / (root * root * root), 0.0)
+        elif loss == "cauchy":
+            out[0, :m] = np.log1p(head)
+            out[1, :m] = 1.0 / (1.0 + head)
+            out[2, :m] = -(out[1, :m] ** 2)
+        return out
+
+    return rho
+
+
 def robust_weights(r: np.ndarray, loss: str, f_scale: float, curvature: bool = False):
     """IRLS weights rho'(s), s = (r / f_scale)^2, of scipy's losses.
 
