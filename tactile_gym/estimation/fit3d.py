@@ -348,13 +348,16 @@ def _fit_general_state(x, e, w, noise, loss, f_scale, prior):
             if est.degenerate:
                 return est, None
             mask = inliers
-            # Let back in what the minimal-set consensus rejected but the fit explains.
+            # Let back in what the minimal-set consensus rejected but the fit explains, up to
+            # the 5-sigma gate: the consensus is there for gross errors, the robust loss
+            # weighs the rest. (A 99 % gate kept out a valid measurement in a fifth of the
+            # fits of 8 simulated presses, whose covariance then claimed far too much.)
             u = est.direction
             pc = est.point - prob.centre
             pc = pc - (pc @ u) * u
             k, c = _invariants(prob.x, e, u, pc)
             prob.e = e
-            again = np.minimum(*_sign_norms(prob, u, pc, k, c)) < CHI2_99[2]
+            again = np.minimum(*_sign_norms(prob, u, pc, k, c)) < OUTLIER_GATE[2]
             if (again != inliers).any() and again.sum() >= 4:
                 est, sub = _fit_subset(x, e, w, noise, loss, f_scale, prior, again)
                 mask = again
