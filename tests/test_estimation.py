@@ -19,6 +19,7 @@ from tactile_gym.estimation import (
     AxisPrior,
     JointAxisEstimator,
     axis_error,
+    axis_nees,
     fit_axis_3d,
     fit_axis_planar,
     fit_axis_simple,
@@ -289,23 +290,8 @@ def _tilted_case(rng, sigma_x=SIGMA_X, sigma_e=SIGMA_E, n=12):
 
 
 def _nees_3d(est: AxisEstimate, p: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """NEES of (point, direction) normal to the axis (4 dof) and of each alone (2 dof each).
-
-    Both are compared in a basis (b1, b2) normal to the estimated direction d; the true
-    point is taken where the true axis crosses the plane normal to d through the estimate.
-    """
-    d = est.direction
-    s = np.sign(d @ u)
-    true_point = p + ((est.point - p) @ d) / (u @ d) * u
-    b = np.linalg.svd(d[None, :])[2][1:].T  # (3, 2) orthonormal, normal to d
-    basis = np.zeros((6, 4))
-    basis[:3, :2] = basis[3:, 2:] = b
-    err = basis.T @ np.concatenate([est.point - true_point, d - s * u])
-    cov = basis.T @ est.covariance[:6, :6] @ basis
-    return np.array(
-        [float(e @ np.linalg.solve(c, e)) for e, c in ((err, cov), (err[:2], cov[:2, :2]))]
-        + [float(err[2:] @ np.linalg.solve(cov[2:, 2:], err[2:]))]
-    )
+    """NEES of (point, direction) normal to the axis (4 dof) and of each alone (2 dof each)."""
+    return np.array(axis_nees(est, p, u))
 
 
 def test_3d_nees_is_calibrated() -> None:

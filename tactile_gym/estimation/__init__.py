@@ -14,7 +14,8 @@ edge), e.g. ``var_in g g^T + var_out n n^T`` for a skin normal n and ``g = n x e
 * :class:`JointAxisEstimator` - the online, weighted estimator;
 * :class:`AxisPrior` - a Gaussian prior on the axis that the fits and the estimator fuse
   with the measurements (maximum a posteriori);
-* :func:`axis_error` - position and angle error against the truth (DESIGN.md section 4).
+* :func:`axis_error` - position and angle error against the truth (DESIGN.md section 4);
+* :func:`axis_nees` - normalised estimation error squared of an estimate's covariance.
 """
 
 from tactile_gym.estimation.axis import COVARIANCE_LAYOUT, AxisEstimate
@@ -25,7 +26,7 @@ from tactile_gym.estimation.fits import (
     fit_axis_simple,
     planar_residual_variance,
 )
-from tactile_gym.estimation.metrics import axis_error
+from tactile_gym.estimation.metrics import axis_error, axis_nees
 from tactile_gym.estimation.online import JointAxisEstimator
 from tactile_gym.estimation.prior import AxisPrior
 from tactile_gym.estimation.robust import LOSSES
@@ -37,6 +38,7 @@ __all__ = [
     "AxisPrior",
     "JointAxisEstimator",
     "axis_error",
+    "axis_nees",
     "edge_rotation_variance",
     "fit_axis_3d",
     "fit_axis_planar",
