@@ -566,6 +566,22 @@ def _door_free_edge(rng: np.random.Generator, n: int = 12):
     return p, u, pts, eds
 
 
+def _median_3d_errors(make_case, seed: int, wild: int, loss: str, method: str):
+    """Median (position, angle) errors of fit_axis_3d over 8 cases, each with ``wild``
+    random edges, asserting the model the fit chose."""
+    rng = np.random.default_rng(seed)
+    errors = []
+    for _ in range(8):
+        p, u, pts, eds = make_case(rng)
+        if wild:
+            idx = rng.choice(len(pts), size=wild, replace=False)
+            eds[idx] = rng.normal(size=(wild, 3))
+        est = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E, loss=loss)
+        assert est.method == method
+        errors.append(axis_error(est, p, u))
+    return np.median(errors, axis=0)
+
+
 @pytest.mark.parametrize("wild", [0, 3])
 def test_3d_clustered_measurements_keep_the_general_model(wild: int) -> None:
     """25 of 35 edges parallel to each other (two thirds, the parallel model's trigger)
@@ -574,17 +590,7 @@ def test_3d_clustered_measurements_keep_the_general_model(wild: int) -> None:
     0.8 deg). Before the models were compared, and the consensus counted the measurements
     of one edge line once, the parallel model was chosen (median 1.5 m, 90 deg) or, with
     wild edges, a consensus of the cluster and two others (54 mm, 61 deg)."""
-    rng = np.random.default_rng(51)
-    errors = []
-    for _ in range(8):
-        p, u, pts, eds = _clustered_case(rng)
-        if wild:
-            idx = rng.choice(len(pts), size=wild, replace=False)
-            eds[idx] = rng.normal(size=(wild, 3))
-        est = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E, loss="soft_l1")
-        assert est.method == "3d"
-        errors.append(axis_error(est, p, u))
-    pos, ang = np.median(errors, axis=0)
+    pos, ang = _median_3d_errors(_clustered_case, 51, wild, "soft_l1", "3d")
     assert pos < 3e-3 and ang < math.radians(2), (pos, np.degrees(ang))
 
 
@@ -602,17 +608,7 @@ def test_online_3d_keeps_the_general_model_through_a_cluster() -> None:
 @pytest.mark.parametrize("loss, wild", [("linear", 0), ("soft_l1", 0), ("soft_l1", 3)])
 def test_3d_parallel_edges_choose_the_parallel_model(loss: str, wild: int) -> None:
     """Genuinely parallel edges (a door's free edge), also with 3 wild edges in 12."""
-    rng = np.random.default_rng(53)
-    errors = []
-    for _ in range(8):
-        p, u, pts, eds = _door_free_edge(rng)
-        if wild:
-            idx = rng.choice(len(pts), size=wild, replace=False)
-            eds[idx] = rng.normal(size=(wild, 3))
-        est = fit_axis_3d(pts, eds, point_std=SIGMA_X, edge_std=SIGMA_E, loss=loss)
-        assert est.method == "3d-parallel"
-        errors.append(axis_error(est, p, u))
-    pos, ang = np.median(errors, axis=0)
+    pos, ang = _median_3d_errors(_door_free_edge, 53, wild, loss, "3d-parallel")
     assert pos < 4e-3 and ang < math.radians(1), (pos, np.degrees(ang))
 
 

@@ -21,6 +21,16 @@ def _vec3(value: object, name: str) -> np.ndarray:
     return v
 
 
+def _true_axis(true_point: object, true_direction: object) -> tuple[np.ndarray, np.ndarray]:
+    """Validated (point, unit direction) of the true axis."""
+    p = _vec3(true_point, "true_point")
+    u = _vec3(true_direction, "true_direction")
+    norm = float(np.linalg.norm(u))
+    if norm == 0.0:
+        raise ValueError("true_direction must be non-zero")
+    return p, u / norm
+
+
 def axis_error(
     estimate: AxisEstimate | None,
     true_point: np.ndarray,
@@ -44,12 +54,7 @@ def axis_error(
     Raises:
         ValueError: on malformed truth vectors (wrong shape, non-finite, zero direction).
     """
-    p = _vec3(true_point, "true_point")
-    u = _vec3(true_direction, "true_direction")
-    norm = float(np.linalg.norm(u))
-    if norm == 0.0:
-        raise ValueError("true_direction must be non-zero")
-    u = u / norm
+    p, u = _true_axis(true_point, true_direction)
     ref = p if reference_point is None else _vec3(reference_point, "reference_point")
     ref = p + ((ref - p) @ u) * u
     if estimate is None or estimate.degenerate:
@@ -85,12 +90,7 @@ def axis_nees(
         ValueError: on malformed truth vectors, or a true axis parallel to the estimate's
             normal plane.
     """
-    p = _vec3(true_point, "true_point")
-    u = _vec3(true_direction, "true_direction")
-    norm = float(np.linalg.norm(u))
-    if norm == 0.0:
-        raise ValueError("true_direction must be non-zero")
-    u = u / norm
+    p, u = _true_axis(true_point, true_direction)
     if estimate is None or estimate.degenerate or estimate.covariance is None:
         return math.inf, math.inf, math.inf
     d = estimate.direction
