@@ -20,6 +20,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from tactile_gym.estimation import (  # noqa: E402
+    AxisPrior,
     JointAxisEstimator,
     fit_axis_3d,
     fit_axis_planar,
@@ -28,6 +29,10 @@ from tactile_gym.estimation import (  # noqa: E402
 SIGMA_X = 1e-3  # m
 SIGMA_E = math.radians(1.0)  # rad, total RMS angle error of an edge
 REPEATS = 15
+# Priors like an env's reset distribution: the pin within ~1 cm, the direction known
+# (planar) or within 15 deg (3d).
+PLANAR_PRIOR = AxisPrior([0.017, 0.105, 0.0], np.diag([1e-4, 1e-4, 0.0]), [0, 0, 1], 0.0)
+TILTED_PRIOR = AxisPrior([0.017, 0.105, 0.03], 1e-4 * np.eye(3), [0.3, -0.2, 1], math.radians(15))
 
 
 def _rot(u: np.ndarray, angle: float) -> np.ndarray:
@@ -78,10 +83,12 @@ def _online_us(
     prefill: int,
     loss: str = "soft_l1",
     edge_cov: bool = False,
+    prior: AxisPrior | None = None,
 ) -> float:
     """Median time of one add + estimate on an estimator already holding ``prefill``.
 
     ``edge_cov``: pass each edge's isotropic covariance explicitly (the validation cost).
+    ``prior``: the estimator's prior.
     """
     covs = [
         0.5 * SIGMA_E**2 * (np.eye(3) - np.outer(e, e)) / float(e @ e)
@@ -89,7 +96,7 @@ def _online_us(
     ]
     samples = []
     for r in range(REPEATS * 20):
-        est = JointAxisEstimator(mode, loss=loss)
+        est = JointAxisEstimator(mode, loss=loss, prior=prior)
         for x, e in zip(pts[:prefill], eds[:prefill], strict=True):
             est.add(x, e, SIGMA_X, SIGMA_E)
         est.estimate()
@@ -177,20 +184,23 @@ def main() -> None:
             rows.append((f"fit_axis_3d N={n} loss={loss} (with stds)", us, target, ""))
 
     planar_online = [
-        # (what, measurements held after the add, loss, explicit edge_cov, target us)
-        ("loss=linear add+estimate", 8, "linear", False, 100.0),
-        ("loss=linear add(edge_cov)+estimate", 8, "linear", True, 100.0),
-        ("loss=soft_l1 add+estimate", 8, "soft_l1", False, math.nan),
-        ("loss=soft_l1 add+estimate", 32, "soft_l1", False, math.nan),
+        # (what, measurements held after the add, loss, explicit edge_cov, prior, target us)
+        ("loss=linear add+estimate", 8, "linear", False, None, 100.0),
+        ("loss=linear add(edge_cov)+estimate", 8, "linear", True, None, 100.0),
+        ("loss=linear add+estimate, prior", 8, "linear", False, PLANAR_PRIOR, 100.0),
+        ("loss=soft_l1 add+estimate", 8, "soft_l1", False, None, math.nan),
+        ("loss=soft_l1 add+estimate, prior", 4, "soft_l1", False, PLANAR_PRIOR, math.nan),
+        ("loss=soft_l1 add+estimate, prior", 8, "soft_l1", False, PLANAR_PRIOR, math.nan),
+        ("loss=soft_l1 add+estimate", 32, "soft_l1", False, None, math.nan),
     ]
-    for what, n, loss, edge_cov, target in planar_online:
+    for what, n, loss, edge_cov, prior, target in planar_online:
         pts, eds = _planar(rng, n + 8)
-        us = _online_us("planar", pts, eds, n - 1, loss=loss, edge_cov=edge_cov)
+        us = _online_us("planar", pts, eds, n - 1, loss=loss, edge_cov=edge_cov, prior=prior)
         rows.append((f"JointAxisEstimator planar {what} (N={n})", us, target, ""))
     pts, eds = _measurements(rng, 16)
-    rows.append(
-        ("JointAxisEstimator 3d add+estimate (N=8)", _online_us("3d", pts, eds, 7), math.nan, "")
-    )
+    for what, prior in (("", None), (", prior", TILTED_PRIOR)):
+        us = _online_us("3d", pts, eds, 7, prior=prior)
+        rows.append((f"JointAxisEstimator 3d add+estimate{what} (N=8)", us, math.nan, ""))
 
     pts, eds = _measurements(rng, 64)
     mean_us, worst_us = _stream_us(pts, eds, 8)

@@ -12,7 +12,10 @@ edge), e.g. ``var_in g g^T + var_out n n^T`` for a skin normal n and ``g = n x e
 * :func:`fit_axis_simple` - the paper's perpendicular-bisector baseline (eq. 22-26);
 * :func:`fit_axis_3d` - any axis direction (eq. 3, 8, 9-10), robust losses, covariance;
 * :class:`JointAxisEstimator` - the online, weighted estimator;
-* :func:`axis_error` - position and angle error against the truth (docs/design.md 6.7).
+* :class:`AxisPrior` - a Gaussian prior on the axis that the fits and the estimator fuse
+  with the measurements (maximum a posteriori);
+* :func:`axis_error` - position and angle error against the truth (docs/design.md 6.7);
+* :func:`axis_nees` - normalised estimation error squared of an estimate's covariance.
 """
 
 from tactile_gym.estimation.axis import COVARIANCE_LAYOUT, AxisEstimate
@@ -23,16 +26,19 @@ from tactile_gym.estimation.fits import (
     fit_axis_simple,
     planar_residual_variance,
 )
-from tactile_gym.estimation.metrics import axis_error
+from tactile_gym.estimation.metrics import axis_error, axis_nees
 from tactile_gym.estimation.online import JointAxisEstimator
+from tactile_gym.estimation.prior import AxisPrior
 from tactile_gym.estimation.robust import LOSSES
 
 __all__ = [
     "COVARIANCE_LAYOUT",
     "LOSSES",
     "AxisEstimate",
+    "AxisPrior",
     "JointAxisEstimator",
     "axis_error",
+    "axis_nees",
     "edge_rotation_variance",
     "fit_axis_3d",
     "fit_axis_planar",

@@ -30,6 +30,7 @@ from tactile_gym.estimation.axis import (
     as_weights,
     degenerate_estimate,
 )
+from tactile_gym.estimation.prior import AxisPrior, check_prior
 from tactile_gym.estimation.robust import (
     CHI2_99,
     check_loss,
@@ -131,6 +132,7 @@ def fit_axis_planar(
     loss: str = "linear",
     f_scale: float | None = None,
     resolve_signs: bool = True,
+    prior: AxisPrior | None = None,
 ) -> AxisEstimate:
     """Fit a joint axis parallel to world z from contact points and edge directions.
 
@@ -175,15 +177,22 @@ def fit_axis_planar(
             MAD-based noise estimate at the starting fit).
         resolve_signs: orient the edges consistently (see the module docstring).
             Pass False when the edges are already oriented.
+        prior: optional :class:`~tactile_gym.estimation.prior.AxisPrior`: a Gaussian prior
+            on (p, q) from the pin's x-y mean and covariance, added to the normal equations
+            (maximum a posteriori; d keeps a flat prior). Needs ``weights`` or stds. The
+            estimate then exists from one usable measurement on (none: the prior's own,
+            ``method="prior"``), and its covariance includes the prior. The robust loss
+            weighs the measurements only.
 
     Returns:
         The estimate, ``method="planar"``. ``degenerate=True`` with fewer than 3 usable
         measurements or a rank-deficient system (e.g. all edges parallel, fewer than three
-        distinct edge directions, identical measurements).
+        distinct edge directions, identical measurements), unless a prior is given.
 
     Raises:
         ValueError: on malformed input (shapes, non-finite values, negative weights or stds,
-            zero edges, weights given together with stds, unknown loss, f_scale <= 0).
+            zero edges, weights given together with stds, unknown loss, f_scale <= 0, a
+            prior that is not an AxisPrior or without weights or stds).
     """
     check_loss(loss, f_scale)
     x = as_points(points, "points")
@@ -193,24 +202,26 @@ def fit_axis_planar(
     if weights is not None and sx is not None:
         raise ValueError("give either weights or point_std with edge_std or edge_cov, not both")
     w = None if weights is None else as_weights(weights, n)
+    check_prior(prior, w is not None or sx is not None)
     if resolve_signs:
         # Signs from the x-y parts (those the fit uses), applied to the whole edges.
         xy = np.column_stack([e3[:, :2], np.zeros(n)])
         e3 = np.where((np.einsum("ij,ij->i", orient_edges(xy), xy) < 0)[:, None], -e3, e3)
     var_z = None if sx is None else edge_rotation_variance(e3, se, cov)
     if loss != "linear":
-        return _robust_planar(_Rows(x, e3, w, sx, var_z), loss, f_scale)[0]
+        return _robust_planar(_Rows(x, e3, w, sx, var_z, prior), loss, f_scale)[0]
     if sx is None:
-        return _checked(_planar_fit(x, e3, w))
-    est = _checked(_planar_fit(x, e3, None))
-    # Predict the residual variances from the current axis and refit; twice is enough for
-    # the levers to settle (they change by the axis error, a few mm).
+        return _checked(_planar_fit(x, e3, w, prior))
+    est = _checked(_planar_fit(x, e3, None)) if prior is None else prior.estimate(planar=True)
+    # Predict the residual variances from the current axis (the prior's, if any) and
+    # refit; twice is enough for the levers to settle (they change by the axis error, a
+    # few mm).
     e2 = _unit_xy_edges(e3)
     for _ in range(2):
         if est.degenerate:
             return est
         var = planar_residual_variance(x[:, :2], e2, est.point[:2], sx, var_z)
-        est = _checked(_planar_fit(x, e3, 1.0 / var))
+        est = _checked(_planar_fit(x, e3, 1.0 / var, prior))
     return est
 
 
@@ -239,18 +250,21 @@ _NO_XY = 1e-9
 _PLANAR_NUMPY_MIN_N = 12
 
 
-def _planar_fit(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> AxisEstimate | None:
+def _planar_fit(
+    x: np.ndarray, e3: np.ndarray, w: np.ndarray | None, prior: AxisPrior | None = None
+) -> AxisEstimate | None:
     """Eq. 18-21 on shape-checked arrays; None when an input is non-finite, an edge zero or
     the arithmetic overflows.
 
     w holds inverse variances (rows with w = 0 are dropped). The normal equations
-    ``A^T W A (p, q, d) = A^T W b`` are accumulated and solved in closed form. This is the
-    hot path of the online estimator: for a few rows a plain-Python loop beats numpy's
-    per-call overhead, and for many rows a lean vectorised version takes over.
+    ``A^T W A (p, q, d) = A^T W b`` are accumulated and solved in closed form, with the
+    prior's information on (p, q) added (it needs w). This is the hot path of the online
+    estimator: for a few rows a plain-Python loop beats numpy's per-call overhead, and for
+    many rows a lean vectorised version takes over.
     """
     n = x.shape[0]
     if n >= _PLANAR_NUMPY_MIN_N and (w is None or w.all()):
-        est = _planar_fit_numpy(x, e3, w)
+        est = _planar_fit_numpy(x, e3, w, prior)
         if est is not None:
             return est
     xl = x.tolist()
@@ -299,10 +313,12 @@ def _planar_fit(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> AxisEsti
             total += r * r
         return total
 
-    return _planar_solve((a00, a01, a02, a11, a12, a22), (r0, r1, r2), len(rows), w, rss)
+    return _planar_solve((a00, a01, a02, a11, a12, a22), (r0, r1, r2), len(rows), w, rss, prior)
 
 
-def _planar_fit_numpy(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> AxisEstimate | None:
+def _planar_fit_numpy(
+    x: np.ndarray, e3: np.ndarray, w: np.ndarray | None, prior: AxisPrior | None
+) -> AxisEstimate | None:
     """Vectorised twin of the loop in :func:`_planar_fit` for many rows with usable edges.
 
     Returns None (the caller falls back to the loop) when an edge has no x-y part or an
@@ -343,6 +359,7 @@ def _planar_fit_numpy(x: np.ndarray, e3: np.ndarray, w: np.ndarray | None) -> Ax
         n,
         w,
         rss,
+        prior,
     )
 
 
@@ -384,13 +401,19 @@ def _planar_solve(
     n: int,
     w: np.ndarray | None,
     rss_at: object,
+    prior: AxisPrior | None = None,
 ) -> AxisEstimate | None:
-    """Solve the 3x3 normal equations by cofactors and assemble the estimate.
+    """Solve the 3x3 normal equations of n rows, the prior's information on (p, q) added,
+    by cofactors and assemble the estimate.
 
     ``rss_at(p, q, d)`` returns the unweighted residual sum of squares. None when the
     solution or its covariance overflows (inputs of order 1e150 m and beyond).
     """
-    if n < 3:
+    if prior is not None:
+        if n == 0:
+            return prior.estimate(planar=True)
+        normal, rhs = _with_prior(normal, rhs, prior)
+    elif n < 3:
         return degenerate_estimate("planar", n, planar=True)
     solved = _sym3_solve(normal, rhs)
     if solved is None:
@@ -446,6 +469,14 @@ def _planar_solve(
     )
 
 
+def _with_prior(normal, rhs, prior: AxisPrior):
+    """The upper triangle of the normal matrix and the right-hand side of the normal
+    equations of (p, q, d), with the prior's information on (p, q) added."""
+    l00, l01, l11, h0, h1 = prior.planar_information
+    a00, a01, a02, a11, a12, a22 = normal
+    return (a00 + l00, a01 + l01, a02, a11 + l11, a12, a22), (rhs[0] + h0, rhs[1] + h1, rhs[2])
+
+
 # ------------------------------------------------------------------------- robust fit
 
 # From this many usable measurements on, a consensus over exact 3-measurement fits
@@ -474,9 +505,11 @@ class _Rows:
         ex, ey: (M,) unit x-y edges; ``b``: (M,) ``e_y x - e_x y``; ``t``: (M,) ``e . x``
             (the lever is ``t - e . axis``); ``sign``: (M,) +-1.
         noise: whether the variances are absolute (weights or stds given).
+        prior: the :class:`~tactile_gym.estimation.prior.AxisPrior` or None (needs noise);
+            ``prior_theta``: its (p, q, 0) or None.
     """
 
-    def __init__(self, x, e3, w, sx, var_z):
+    def __init__(self, x, e3, w, sx, var_z, prior=None):
         nxy = np.hypot(e3[:, 0], e3[:, 1])
         use = nxy > _NO_XY * np.sqrt(np.einsum("ij,ij->i", e3, e3))
         if w is not None:
@@ -496,6 +529,8 @@ class _Rows:
         else:
             self.var_z = var_z[idx]
             self.sx2 = np.square(sx[idx])
+        self.prior = prior
+        self.prior_theta = None if prior is None else np.array([*prior.pin[:2], 0.0])
 
     @property
     def m(self) -> int:
@@ -552,11 +587,27 @@ class _Rows:
         return keep / (var + even - odd), flipped / (var + even + odd)
 
     def exact(self, tri: np.ndarray) -> np.ndarray | None:
-        """(p, q, d) through three rows, or None when their edges are (nearly) parallel."""
+        """(p, q, d) through three rows, or None when their edges are (nearly) parallel.
+
+        With a prior: the maximum a posteriori (p, q, d) of the three rows, weighted by
+        their variances at the prior's axis (exact rows fitted to their noise, after a
+        small turn of the link, are far off).
+        """
         a, b = self.design(tri)
+        if self.prior is not None:
+            var = self.variance_model(tri)(self.prior_theta)
+            return _weighted_solve(a, b, 1.0 / var, self.prior)
         if not abs(np.linalg.det(a)) > 1e-6:
             return None
         return np.linalg.solve(a, b)
+
+    def information(self, a: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """The information matrix ``A^T W A`` of (p, q, d), with the prior's added."""
+        info = (a * w[:, None]).T @ a
+        if self.prior is not None:
+            l00, l01, l11, _, _ = self.prior.planar_information
+            info[:2, :2] += [[l00, l01], [l01, l11]]
+        return info
 
 
 def _robust_planar(rows: _Rows, loss: str, f_scale: float | None, start=None):
@@ -574,7 +625,9 @@ def _robust_planar(rows: _Rows, loss: str, f_scale: float | None, start=None):
         ``start`` (None when the estimate is degenerate).
     """
     m = rows.m
-    if m < 3:
+    if rows.prior is not None and m == 0:
+        return rows.prior.estimate(planar=True), None
+    if rows.prior is None and m < 3:
         return degenerate_estimate("planar", m, planar=True), None
     sel = np.ones(m, dtype=bool)
     found = None
@@ -589,7 +642,10 @@ def _robust_planar(rows: _Rows, loss: str, f_scale: float | None, start=None):
         )
     if found is None:
         a, b = rows.design(sel)
-        theta = _weighted_solve(a, b, np.ones(m))
+        if rows.prior is None:
+            theta = _weighted_solve(a, b, np.ones(m))
+        else:
+            theta = _weighted_solve(a, b, 1.0 / rows.variance_model()(rows.prior_theta), rows.prior)
     else:
         # Signs are decided at the robust fit below: an exact 3-measurement fit is too rough
         # to judge them, and a valid edge flipped costs this badly conditioned fit dearly.
@@ -606,7 +662,7 @@ def _robust_planar(rows: _Rows, loss: str, f_scale: float | None, start=None):
         weights, sigma2 = _solution_weights(rows, sel, theta, loss, f_scale)
         a, _ = rows.design(sel)
         try:
-            cov = np.linalg.inv((a * weights[sel, None]).T @ a)
+            cov = np.linalg.inv(rows.information(a, weights[sel]))
         except np.linalg.LinAlgError:
             return degenerate_estimate("planar", m, planar=True), None
         # Edges that fit far better flipped, and (after a consensus) the measurements the
@@ -626,15 +682,24 @@ def _robust_planar(rows: _Rows, loss: str, f_scale: float | None, start=None):
     return est, None if est.degenerate else (theta, sel, rows.sign)
 
 
-def _weighted_solve(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray | None:
-    """Weighted least squares ``argmin sum w (b - a theta)^2``; None if rank deficient."""
-    return _augmented_solve(np.column_stack([a, b]), w)
+def _weighted_solve(
+    a: np.ndarray, b: np.ndarray, w: np.ndarray, prior: AxisPrior | None = None
+) -> np.ndarray | None:
+    """Weighted least squares ``argmin sum w (b - a theta)^2`` (plus the prior's cost on
+    (p, q), w then absolute); None if rank deficient."""
+    return _augmented_solve(np.column_stack([a, b]), w, prior)
 
 
-def _augmented_solve(m: np.ndarray, w: np.ndarray) -> np.ndarray | None:
+def _augmented_solve(
+    m: np.ndarray, w: np.ndarray, prior: AxisPrior | None = None
+) -> np.ndarray | None:
     """:func:`_weighted_solve` of the augmented rows ``m = [a | b]`` (M, 4)."""
     g = ((m * w[:, None]).T @ m).tolist()
-    solved = _sym3_solve((g[0][0], g[0][1], g[0][2], g[1][1], g[1][2], g[2][2]), g[3][:3])
+    normal = (g[0][0], g[0][1], g[0][2], g[1][1], g[1][2], g[2][2])
+    rhs = g[3][:3]
+    if prior is not None:
+        normal, rhs = _with_prior(normal, rhs, prior)
+    solved = _sym3_solve(normal, rhs)
     return None if solved is None else np.array(solved[0])
 
 
@@ -647,7 +712,8 @@ def _irls(rows: _Rows, sel, theta, loss: str, f_scale: float) -> np.ndarray | No
     for _ in range(_ROBUST_MAX_ITER):
         var = variances(theta)
         r = b - a @ theta
-        new = _augmented_solve(m, robust_weights(r / np.sqrt(var), loss, f_scale) / var)
+        w = robust_weights(r / np.sqrt(var), loss, f_scale) / var
+        new = _augmented_solve(m, w, rows.prior)
         if new is None:
             return None
         step = (new - theta).tolist()
@@ -686,7 +752,7 @@ def _robust_estimate(rows: _Rows, sel, theta, loss: str, f_scale: float) -> Axis
         return _checked(_planar_fit(rows.x[kept], e3[kept], None))
     weights = np.zeros(rows.x.shape[0])
     weights[rows.idx] = _solution_weights(rows, sel, theta, loss, f_scale)[0]
-    return _checked(_planar_fit(rows.x, e3, weights))
+    return _checked(_planar_fit(rows.x, e3, weights, rows.prior))
 
 
 def fit_axis_simple(points: np.ndarray) -> AxisEstimate:

@@ -11,7 +11,7 @@ import numpy as np
 
 from tactile_gym.estimation.axis import AxisEstimate
 
-__all__ = ["axis_error"]
+__all__ = ["axis_error", "axis_nees"]
 
 
 def _vec3(value: object, name: str) -> np.ndarray:
@@ -19,6 +19,16 @@ def _vec3(value: object, name: str) -> np.ndarray:
     if v.shape != (3,) or not np.isfinite(v).all():
         raise ValueError(f"{name} must be a finite (3,) vector, got {value!r}")
     return v
+
+
+def _true_axis(true_point: object, true_direction: object) -> tuple[np.ndarray, np.ndarray]:
+    """Validated (point, unit direction) of the true axis."""
+    p = _vec3(true_point, "true_point")
+    u = _vec3(true_direction, "true_direction")
+    norm = float(np.linalg.norm(u))
+    if norm == 0.0:
+        raise ValueError("true_direction must be non-zero")
+    return p, u / norm
 
 
 def axis_error(
@@ -44,12 +54,7 @@ def axis_error(
     Raises:
         ValueError: on malformed truth vectors (wrong shape, non-finite, zero direction).
     """
-    p = _vec3(true_point, "true_point")
-    u = _vec3(true_direction, "true_direction")
-    norm = float(np.linalg.norm(u))
-    if norm == 0.0:
-        raise ValueError("true_direction must be non-zero")
-    u = u / norm
+    p, u = _true_axis(true_point, true_direction)
     ref = p if reference_point is None else _vec3(reference_point, "reference_point")
     ref = p + ((ref - p) @ u) * u
     if estimate is None or estimate.degenerate:
@@ -59,3 +64,47 @@ def axis_error(
     # arctan2 of |cross| and |dot| stays accurate for tiny angles, where arccos does not.
     sin = float(np.linalg.norm(np.cross(estimate.direction, u)))
     return position, math.atan2(sin, cos)
+
+
+def axis_nees(
+    estimate: AxisEstimate | None, true_point: np.ndarray, true_direction: np.ndarray
+) -> tuple[float, float, float]:
+    """Normalised estimation error squared of an axis estimate against the truth.
+
+    The errors are taken in a basis (b1, b2) normal to the estimated direction d: of the
+    direction, ``d - s u`` (s the sign that aligns the true direction u with d), and of the
+    position, the estimate's point minus the point where the true axis crosses the plane
+    normal to d through it. Each is weighed by the matching block of ``covariance``. For a
+    consistent estimator their means are 4, 2 and 2 (chi-square degrees of freedom).
+
+    Args:
+        estimate: the estimate, with a covariance.
+        true_point: (3,) any point on the true axis, world frame, m.
+        true_direction: (3,) true axis direction (any length > 0, any sign).
+
+    Returns:
+        ``(joint, position, direction)``: the NEES of all four errors and of each pair.
+        ``(inf, inf, inf)`` for None, a degenerate estimate or one without covariance.
+
+    Raises:
+        ValueError: on malformed truth vectors, or a true axis parallel to the estimate's
+            normal plane.
+    """
+    p, u = _true_axis(true_point, true_direction)
+    if estimate is None or estimate.degenerate or estimate.covariance is None:
+        return math.inf, math.inf, math.inf
+    d = estimate.direction
+    along = float(u @ d)
+    if abs(along) < 1e-12:
+        raise ValueError(f"true_direction must not be normal to the estimate's, got {u.tolist()}")
+    crossing = p + ((estimate.point - p) @ d) / along * u
+    b = np.linalg.svd(d[None, :])[2][1:].T  # (3, 2) orthonormal, normal to d
+    basis = np.zeros((6, 4))
+    basis[:3, :2] = basis[3:, 2:] = b
+    err = basis.T @ np.concatenate([estimate.point - crossing, d - math.copysign(1.0, along) * u])
+    cov = basis.T @ estimate.covariance[:6, :6] @ basis
+    return (
+        float(err @ np.linalg.solve(cov, err)),
+        float(err[:2] @ np.linalg.solve(cov[:2, :2], err[:2])),
+        float(err[2:] @ np.linalg.solve(cov[2:, 2:], err[2:])),
+    )

@@ -21,7 +21,12 @@ import math
 
 import numpy as np
 
-from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs, isotropic_edge_covs
+from tactile_gym.estimation.axis import (
+    AxisEstimate,
+    as_edge_covs,
+    degenerate_estimate,
+    isotropic_edge_covs,
+)
 from tactile_gym.estimation.fit3d import _fit_state, _Noise, _update_state
 from tactile_gym.estimation.fits import (
     _isotropic_rotation_variance,
@@ -31,6 +36,7 @@ from tactile_gym.estimation.fits import (
     edge_rotation_variance,
     planar_residual_variance,
 )
+from tactile_gym.estimation.prior import AxisPrior, check_prior
 from tactile_gym.estimation.robust import check_loss
 from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
 
@@ -51,16 +57,25 @@ _FULL_REFIT_GROWTH = 1.25
 class JointAxisEstimator:
     """Incremental joint-axis estimate from tactile measurements.
 
-    ``estimate()`` returns None until the axis is identifiable:
+    Without a prior, ``estimate()`` returns None until the axis is identifiable:
 
     * ``"planar"`` (axis along world z, paper eq. 16-21): at least ``min_measurements``
       (default 3) measurements with at least three distinct edge directions in the x-y plane;
     * ``"3d"`` (any axis, see :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`): at least
       ``min_measurements`` (default 4) measurements with at least three distinct edge
-      directions, or edges all parallel (the axis parallel to the edge, eq. 9-10);
+      directions, or a fit that chose the parallel model (the axis parallel to the edges,
+      eq. 9-10; a noisy edge may count as a second direction);
 
     and the fit is not degenerate. Directions are distinct when more than
     ``max(0.5 deg, 3 edge_std)`` apart.
+
+    With a ``prior`` (an :class:`~tactile_gym.estimation.prior.AxisPrior`, e.g. from the
+    reset distribution) the fits are maximum a posteriori (see the fits' ``prior``) and
+    ``estimate()`` always returns an estimate: the prior's own (``method="prior"``) before
+    any measurement, then the fit of the measurements and the prior, which moves smoothly
+    away from the prior as information accrues; its covariance includes the prior.
+    ``min_measurements`` and the distinct directions do not apply. The planar mode uses
+    the prior's pin (x-y) only: its axis is vertical by assumption.
 
     Both modes use ``loss``: with ``"linear"`` the planar mode is a weighted linear
     least-squares fit, refitted once per update with the residual variances of the previous
@@ -70,16 +85,26 @@ class JointAxisEstimator:
 
     Args:
         mode: ``"planar"`` or ``"3d"``.
-        loss: loss of the fit, one of ``LOSSES`` (``"linear"``: least squares).
-        min_measurements: measurements needed before a first estimate (>= 3).
+        loss: loss of the fit, one of ``LOSSES`` (``"linear"``: least squares); it never
+            applies to the prior.
+        min_measurements: measurements needed before a first estimate without a prior
+            (>= 3).
+        prior: optional :class:`~tactile_gym.estimation.prior.AxisPrior`, kept across
+            ``reset``.
     """
 
     def __init__(
-        self, mode: str = "planar", loss: str = "soft_l1", min_measurements: int | None = None
+        self,
+        mode: str = "planar",
+        loss: str = "soft_l1",
+        min_measurements: int | None = None,
+        prior: AxisPrior | None = None,
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
         check_loss(loss)
+        # The stds of every measurement make the noise absolute.
+        check_prior(prior, absolute_noise=True)
         default_min = 3 if mode == "planar" else 4
         if min_measurements is None:
             min_measurements = default_min
@@ -88,6 +113,7 @@ class JointAxisEstimator:
             raise ValueError(f"min_measurements must be an integer >= 3, got {min_measurements!r}")
         self.mode = mode
         self.loss = loss
+        self.prior = prior
         self.min_measurements = int(min_measurements)
         self._dim = 2 if mode == "planar" else 3
         self.reset()
@@ -105,7 +131,7 @@ class JointAxisEstimator:
         self._edge_noise = np.empty((cap,) if self.mode == "planar" else (cap, 3, 3))
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
         self._cached: AxisEstimate | None = None
-        self._stale = False
+        self._stale = True
         self._last: AxisEstimate | None = None
         # The last robust solution, for warm starts: 3d mode, a fit3d._Solution; planar
         # mode, the (theta, sel, sign) of fits._robust_planar.
@@ -244,7 +270,8 @@ class JointAxisEstimator:
             setattr(self, name, new)
 
     def estimate(self) -> AxisEstimate | None:
-        """The current axis estimate, or None while the axis is not identifiable."""
+        """The current axis estimate; without a prior, None while the axis is not
+        identifiable."""
         if not self._stale:
             return self._cached
         self._stale = False
@@ -255,19 +282,34 @@ class JointAxisEstimator:
 
     def _refit(self) -> AxisEstimate | None:
         n = self._n
-        if n < self.min_measurements:
+        prior = self.prior
+        if prior is None and (
+            n < self.min_measurements or (self.mode == "planar" and len(self._dirs) < 3)
+        ):
             return None
+        if n == 0:
+            return prior.estimate(planar=self.mode == "planar")
         if self.mode == "planar":
-            if len(self._dirs) < 3:
-                return None
-            return self._refit_planar()
-        if len(self._dirs) == 2:
+            est = self._refit_planar()
+        else:
+            est = self._refit_3d()
+        if prior is not None:
+            # Flagged if degenerate (the prior keeps the system regular; only overflowing
+            # input could), never None.
+            return est
+        if est.degenerate:
             return None
+        if self.mode == "3d" and len(self._dirs) < 3 and est.method != "3d-parallel":
+            return None
+        return est
+
+    def _refit_3d(self) -> AxisEstimate:
+        n = self._n
         est = None
         x = self._points[:n]
         noise = _Noise(self._point_std[:n].copy(), self._edge_noise[:n].copy())
         if self._state is not None and n < self._n_full * _FULL_REFIT_GROWTH:
-            out = _update_state(x, self._edges[:n], noise, self.loss, self._state)
+            out = _update_state(x, self._edges[:n], noise, self.loss, self._state, self.prior)
             if out is not None:
                 est, self._state = out
         if est is None:
@@ -279,38 +321,35 @@ class JointAxisEstimator:
                 self.loss,
                 None,
                 math.radians(1.0),
+                self.prior,
             )
             self._n_full = n
-        if est.degenerate:
-            return None
-        if len(self._dirs) < 3 and est.method != "3d-parallel":
-            return None
         return est
 
-    def _refit_planar(self) -> AxisEstimate | None:
+    def _refit_planar(self) -> AxisEstimate:
         n = self._n
         x = self._points[:n]
         e = self._edges[:n]
         sx = self._point_std[:n]
         var_z = self._edge_noise[:n]
+        prior = self.prior
         if self.loss != "linear":
             # Warm start from the last solution (no consensus) until the measurements have
             # grown by _FULL_REFIT_GROWTH; every row of the online data is usable.
             start = self._state if n < self._n_full * _FULL_REFIT_GROWTH else None
-            est, self._state = _robust_planar(_Rows(x, e, None, sx, var_z), self.loss, None, start)
+            rows = _Rows(x, e, None, sx, var_z, prior)
+            est, self._state = _robust_planar(rows, self.loss, None, start)
             if start is None:
                 self._n_full = n
-            return None if est.degenerate else est
+            return est
         prev = self._last
         passes = 1
         if prev is None or prev.degenerate:
-            prev = _planar_fit(x, e, None)
+            prev = _planar_fit(x, e, None) if prior is None else prior.estimate(planar=True)
             passes = 2
         for _ in range(passes):
             if prev is None or prev.degenerate:
-                return None
+                return degenerate_estimate("planar", n, planar=True)
             var = planar_residual_variance(x[:, :2], e[:, :2], prev.point[:2], sx, var_z)
-            prev = _planar_fit(x, e, 1.0 / var)
-        if prev is None or prev.degenerate:
-            return None
-        return prev
+            prev = _planar_fit(x, e, 1.0 / var, prior)
+        return degenerate_estimate("planar", n, planar=True) if prev is None else prev

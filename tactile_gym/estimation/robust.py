@@ -18,11 +18,11 @@ LOSSES = ("linear", "soft_l1", "huber", "cauchy")
 """Loss functions accepted by the fits (those of scipy's least_squares)."""
 
 # Chi-square 99 % quantiles: a squared whitened residual beyond them is an outlier.
-CHI2_99 = {1: 6.63, 2: 9.21}
+CHI2_99 = {1: 6.63, 2: 9.21, 3: 11.34}
 
 # Chi-square quantiles at the two-sided 5-sigma probability (5.7e-7): beyond them a
 # squared whitened residual is a gross error, not noise.
-OUTLIER_GATE = {1: 25.0, 2: 28.7}
+OUTLIER_GATE = {1: 25.0, 2: 28.7, 3: 31.8}
 
 # Normalised median absolute deviation: 1.4826 MAD estimates a Gaussian std.
 MAD_TO_STD = 1.4826
@@ -55,6 +55,46 @@ def loss_cost(z: np.ndarray, loss: str, f_scale: float) -> float:
     else:  # cauchy
         rho = np.log1p(s)
     return 0.5 * f_scale * f_scale * float(rho.sum())
+
+
+def split_loss_cost(z: np.ndarray, m: int, loss: str, f_scale: float) -> float:
+    """:func:`loss_cost` of the first m whitened residuals (the measurements') plus the
+    least-squares cost of the rest (a prior's: robust losses never apply to them)."""
+    tail = z[m:]
+    return loss_cost(z[:m], loss, f_scale) + 0.5 * float(tail @ tail)
+
+
+def split_loss(loss: str, m: int):
+    """A callable ``loss`` for scipy's least_squares: ``loss`` on the first m residuals,
+    least squares on the rest (see :func:`split_loss_cost`).
+
+    scipy calls it with ``s = (f / f_scale)^2`` and takes ``(rho, rho', rho'')`` in s.
+    """
+
+    def rho(s: np.ndarray) -> np.ndarray:
+        out = np.empty((3, s.size))
+        out[0] = s
+        out[1] = 1.0
+        out[2] = 0.0
+        head = s[:m]
+        if loss == "soft_l1":
+            t = 1.0 + head
+            out[0, :m] = 2.0 * (np.sqrt(t) - 1.0)
+            out[1, :m] = t**-0.5
+            out[2, :m] = -0.5 * t**-1.5
+        elif loss == "huber":
+            far = head > 1.0
+            root = np.sqrt(np.where(far, head, 1.0))
+            out[0, :m] = np.where(far, 2.0 * root - 1.0, head)
+            out[1, :m] = np.where(far, 1.0 / root, 1.0)
+            out[2, :m] = np.where(far, -0.5 / (root * root * root), 0.0)
+        elif loss == "cauchy":
+            out[0, :m] = np.log1p(head)
+            out[1, :m] = 1.0 / (1.0 + head)
+            out[2, :m] = -(out[1, :m] ** 2)
+        return out
+
+    return rho
 
 
 def robust_weights(r: np.ndarray, loss: str, f_scale: float, curvature: bool = False):
@@ -97,6 +137,7 @@ def consensus(
     sq_norms: Callable[[object], np.ndarray],
     dof: int,
     whitened: bool = True,
+    shares: np.ndarray | None = None,
 ) -> tuple[np.ndarray, object, float] | None:
     """The inlier mask and fit of the best minimal (3-measurement) fit, RANSAC-style.
 
@@ -109,6 +150,11 @@ def consensus(
     candidate has the least median norm (Rousseeuw's least median of squares), and the
     noise variance comes from that median.
 
+    ``shares`` count repeated measurements of one thing once: inliers are counted by their
+    shares, and the triples are spread over the cumulative shares (random ones drawn in
+    proportion to them). Many measurements of one edge line then neither crowd out the
+    triples of distinct lines nor make any axis through that line win the count.
+
     Args:
         n: number of measurements (>= 3).
         fit_triple: the fit of the measurements at three indices, or None where they do
@@ -117,15 +163,19 @@ def consensus(
             (``whitened=False``) not.
         dof: degrees of freedom of one measurement's residual.
         whitened: whether ``sq_norms`` are in units of their predicted variance.
+        shares: optional (n,) shares > 0 of the measurements in the inlier count, e.g.
+            ``1 / (number of measurements of the same line)``; default all 1.
 
     Returns:
         ``(inliers, fit, scale)``: ``scale`` is the noise variance that whitens the norms
         (1 when they are whitened). None when no triple gave a fit with 4 inliers or more.
     """
     threshold = CHI2_99[dof]
+    share = np.ones(n) if shares is None else shares
+    total = float(share.sum())
     best = best_key = best_fit = None
     needed = _CONSENSUS_TRIALS
-    for trial, tri in enumerate(_triples(n)):
+    for trial, tri in enumerate(_triples(n, shares)):
         if trial >= needed:
             break
         if len(set(tri)) < 3:
@@ -136,13 +186,14 @@ def consensus(
         z = sq_norms(fit)
         scale = 1.0 if whitened else _lmeds_variance(z, dof)
         inl = z < threshold * scale
+        count = float(share @ inl)
         if whitened:
-            key = (int(inl.sum()), -float(np.minimum(z, threshold).sum()))
+            key = (count, -float(np.minimum(z, threshold).sum()))
         else:
             key = (-scale,)
         if best_key is None or key > best_key:
             best, best_key, best_fit, best_scale = inl, key, fit, scale
-            frac = min(int(inl.sum()) / n, 1.0 - 1e-9)
+            frac = min(count / total, 1.0 - 1e-9)
             needed = min(
                 _CONSENSUS_TRIALS, int(math.ceil(math.log(0.01) / math.log(1.0 - frac**3)))
             )
@@ -163,12 +214,25 @@ def _lmeds_variance(sq_norms: np.ndarray, dof: int) -> float:
     return max(factor * float(np.median(sq_norms)) / _CHI2_MEDIAN[dof], 1e-300)
 
 
-def _triples(n: int):
-    """Up to ``_CONSENSUS_TRIALS`` index triples: spread over the sequence, then random
-    from a fixed-seed generator (drawn only when needed: most fits stop after a few)."""
-    third = max(n // 3, 1)
-    for i in range(min(n, _CONSENSUS_TRIALS)):
-        yield (i, (i + third) % n, (i + 2 * third) % n)
+def _triples(n: int, shares: np.ndarray | None = None):
+    """Up to ``_CONSENSUS_TRIALS`` index triples: spread over the sequence (over the
+    cumulative ``shares`` when given), then random from a fixed-seed generator (drawn in
+    proportion to the shares, and only when needed: most fits stop after a few)."""
+    if shares is None:
+        third = max(n // 3, 1)
+        for i in range(min(n, _CONSENSUS_TRIALS)):
+            yield (i, (i + third) % n, (i + 2 * third) % n)
+        prob = None
+    else:
+        # Measurement i covers [end_i - shares_i, end_i) of the cumulative shares.
+        end = np.cumsum(shares)
+        total = float(end[-1])
+        m = min(n, _CONSENSUS_TRIALS)
+        start = (np.arange(m) + 0.5) * total / m
+        at = (start[:, None] + total * np.array([0.0, 1.0, 2.0]) / 3.0) % total
+        idx = np.searchsorted(end, at, side="right").clip(max=n - 1)
+        yield from map(tuple, idx.tolist())
+        prob = shares / total
     gen = np.random.default_rng(0)
     for _ in range(_CONSENSUS_TRIALS - n):
-        yield tuple(gen.choice(n, size=3, replace=False).tolist())
+        yield tuple(gen.choice(n, size=3, replace=False, p=prob).tolist())
