@@ -9,8 +9,8 @@ from scipy.spatial.transform import Rotation
 
 import tactile_gym  # noqa: F401 - registers the envs
 from tactile_gym.envs.controller import DeltaPoseController
-from tactile_gym.envs.prior import prior_from_samples
 from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, probed_edge, sample_scenario
+from tactile_gym.estimation import AxisPrior
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.spatial import quaternion_to_matrix
 
@@ -110,7 +110,7 @@ def test_prior_summarises_the_reset_distribution():
     pins = rng.normal([0.017, 0.105, 0.004], 0.005, size=(4000, 3))
     tilt = rng.normal(0.0, 0.1, size=(4000, 2))
     dirs = np.column_stack([tilt, np.ones(4000)]) * rng.choice([-1, 1], (4000, 1))
-    prior = prior_from_samples(pins, dirs)
+    prior = AxisPrior.from_samples(pins, dirs)
     np.testing.assert_allclose(prior.pin, [0.017, 0.105, 0.004], atol=3e-4)
     np.testing.assert_allclose(np.diag(prior.pin_cov), 0.005**2, rtol=0.1)
     np.testing.assert_allclose(prior.direction, [0, 0, 1], atol=0.01)

@@ -14,7 +14,6 @@ from gymnasium import spaces
 
 from tactile_gym.envs.controller import DeltaPoseController
 from tactile_gym.envs.gate import GateConfig, Measurement, MeasurementGate
-from tactile_gym.envs.prior import AxisPrior, prior_from_samples
 from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, sample_scenario
 from tactile_gym.envs.task import (
     TERMINATION_REASONS,
@@ -23,7 +22,7 @@ from tactile_gym.envs.task import (
     TaskConfig,
 )
 from tactile_gym.envs.touch import Touch, TouchSensor
-from tactile_gym.estimation import LOSSES, AxisEstimate, JointAxisEstimator, axis_error
+from tactile_gym.estimation import LOSSES, AxisEstimate, AxisPrior, JointAxisEstimator, axis_error
 from tactile_gym.sensing import FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
 from tactile_gym.validation import (
@@ -55,7 +54,7 @@ OBSERVATION_LAYOUT: tuple[tuple[str, int], ...] = (
 
 #: Edge directions closer than this count as one link angle in ``progress``, rad.
 DISTINCT_ANGLE = float(np.deg2rad(3.0))
-#: Scenario draws behind the prior (``tactile_gym.envs.prior``), from a fixed seed.
+#: Scenario draws behind the prior (the reset distribution's), from a fixed seed.
 PRIOR_SAMPLES = 512
 
 
@@ -349,11 +348,15 @@ class HingeProbeEnv(gym.Env):
             self.geometry, self._sensor_config, self._skin_config.normal_stiffness
         )
         self.gate = MeasurementGate(cfg.gate_config(), self.touch_sensor)
-        self.estimator = JointAxisEstimator(mode=cfg.estimator, loss=cfg.estimator_loss)
         self.controller = DeltaPoseController(
             cfg.max_translation, cfg.max_rotation, self.geometry.sphere_center
         )
         self.prior = self._reset_distribution_prior()
+        # The estimator fuses the prior with the measurements (maximum a posteriori), so its
+        # estimate is the prior before any measurement and leaves it as evidence accrues.
+        self.estimator = JointAxisEstimator(
+            mode=cfg.estimator, loss=cfg.estimator_loss, prior=self.prior
+        )
         self._scene: ProbeScene | None = None
         self.measurements: list[Measurement] = []
         self._episode_over = True
@@ -420,7 +423,7 @@ class HingeProbeEnv(gym.Env):
         self.measurements = []
         self._directions: list[np.ndarray] = []  # one representative per distinct direction
         self._span = 0.0
-        self._estimate = self.prior.estimate()
+        self._estimate = self.estimator.estimate()
         self._steps = 0
         self._episode_over = False
         self._quaternion = self._scene.fingertip_orientation
@@ -504,7 +507,7 @@ class HingeProbeEnv(gym.Env):
 
     @property
     def axis_estimate(self) -> AxisEstimate:
-        """The current estimate: the prior until the estimator has one."""
+        """The current estimate (the prior fused with the measurements so far)."""
         return self._estimate
 
     @property
@@ -528,9 +531,7 @@ class HingeProbeEnv(gym.Env):
             self._count_direction(m.edge)
         self.measurements.extend(accepted)
         if accepted:
-            estimate = self.estimator.estimate()
-            if estimate is not None:
-                self._estimate = estimate
+            self._estimate = self.estimator.estimate()
         return accepted
 
     def _observation(self):
@@ -623,7 +624,7 @@ class HingeProbeEnv(gym.Env):
             )
             pins.append(scenario.object_config.joint_position)
             directions.append(scenario.object_config.axis)
-        return prior_from_samples(np.array(pins), np.array(directions))
+        return AxisPrior.from_samples(np.array(pins), np.array(directions))
 
 
 def _box(low: np.ndarray, high: np.ndarray) -> spaces.Box:
