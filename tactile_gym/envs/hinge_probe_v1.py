@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import sys
 from dataclasses import dataclass, field
@@ -605,20 +606,53 @@ class HingeProbeEnv(gym.Env):
 
     def _reset_distribution_prior(self) -> AxisPrior:
         """The prior from the reset distribution (fixed seed; never this episode's truth)."""
-        rng = np.random.default_rng(0)
-        pins, directions = [], []
-        for _ in range(PRIOR_SAMPLES if self.config.randomize else 1):
-            scenario = sample_scenario(
-                rng,
-                self.config.families,
-                self.scenario_config,
-                self.geometry,
-                self.config.randomize,
-                self.config.object,
-            )
-            pins.append(scenario.object_config.joint_position)
-            directions.append(scenario.object_config.axis)
-        return prior_from_samples(np.array(pins), np.array(directions))
+        cfg = self.config
+        return _reset_distribution_prior(
+            cfg.families,
+            _frozen(dataclasses.asdict(self.scenario_config)),
+            self.geometry,
+            cfg.randomize,
+            _frozen(cfg.object),
+        )
+
+
+@functools.lru_cache(maxsize=64)
+def _reset_distribution_prior(
+    families: tuple[str, ...],
+    scenario: tuple,
+    geometry: FingertipGeometry,
+    randomize: bool,
+    object_overrides: tuple,
+) -> AxisPrior:
+    """The prior of one reset distribution, drawn once per process.
+
+    Its ``PRIOR_SAMPLES`` draws take about 0.4 s, most of a ``gym.make``, and every env made
+    with the same families, ranges and overrides draws the same scenarios from the same seed.
+    ``scenario`` and ``object_overrides`` are the ``_frozen`` ``ScenarioConfig`` fields and
+    ``object`` overrides. Envs share the result, so its arrays are read-only.
+    """
+    scenario_config = ScenarioConfig(**dict(scenario))
+    rng = np.random.default_rng(0)
+    pins, directions = [], []
+    for _ in range(PRIOR_SAMPLES if randomize else 1):
+        drawn = sample_scenario(
+            rng, families, scenario_config, geometry, randomize, dict(object_overrides)
+        )
+        pins.append(drawn.object_config.joint_position)
+        directions.append(drawn.object_config.axis)
+    prior = prior_from_samples(np.array(pins), np.array(directions))
+    for array in (prior.pin, prior.pin_cov, prior.direction):
+        array.flags.writeable = False
+    return prior
+
+
+def _frozen(value: Any) -> Any:
+    """A hashable copy of a config value: dicts as sorted item pairs, sequences as tuples."""
+    if isinstance(value, dict):
+        return tuple(sorted((key, _frozen(item)) for key, item in value.items()))
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return tuple(_frozen(item) for item in value)
+    return value
 
 
 def _box(low: np.ndarray, high: np.ndarray) -> spaces.Box:
