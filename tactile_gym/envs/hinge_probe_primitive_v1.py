@@ -78,9 +78,9 @@ class HingeProbePrimitiveEnv(gym.Env):
         self,
         render_mode: str | None = None,
         max_primitives: int = 64,
-        probe_across: float = 0.003,
-        probe_along: float = 0.01,
-        turn_distance: float = 0.02,
+        probe_across: float = PrimitiveScales.probe_across,
+        probe_along: float = PrimitiveScales.probe_along,
+        turn_distance: float = PrimitiveScales.turn_distance,
         **kwargs: Any,
     ) -> None:
         self.max_primitives = check_int("max_primitives", max_primitives, 1, 10_000)
