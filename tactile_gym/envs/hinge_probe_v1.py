@@ -27,6 +27,8 @@ from tactile_gym.envs.touch import Touch, TouchSensor
 from tactile_gym.estimation import LOSSES, AxisEstimate, JointAxisEstimator, axis_error
 from tactile_gym.sensing import FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
+from tactile_gym.sim.scene import FORCE_LIMIT
+from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
 from tactile_gym.validation import (
     build_config,
     check_bool,
@@ -92,11 +94,11 @@ class HingeProbeConfig:
     estimator_loss: str = "soft_l1"
     observation_mode: str = "dict"
     max_steps: int = 400
-    time_step: float = 1.0 / 240.0
-    substeps: int = 12
+    time_step: float = TIME_STEP
+    substeps: int = SUBSTEPS
     max_translation: float = 0.002
     max_rotation: float = float(np.deg2rad(3.0))
-    force_limit: float = 8.0
+    force_limit: float = FORCE_LIMIT
     randomize: bool = True
     skin: dict = field(default_factory=dict)
     sensor: dict = field(default_factory=dict)

@@ -32,7 +32,7 @@ from tactile_gym.sim.config import ObjectConfig, SkinConfig
 from tactile_gym.sim.objects import FREE_BODY, HingedObject
 from tactile_gym.sim.primitives import Plane
 from tactile_gym.sim.skin import Contact, SoftSkin
-from tactile_gym.sim.world import World
+from tactile_gym.sim.world import SUBSTEPS, TIME_STEP, World
 from tactile_gym.spatial import (
     matrix_to_quaternion,
     matrix_to_rotvec,
@@ -40,7 +40,10 @@ from tactile_gym.spatial import (
     rotvec_to_matrix,
 )
 
-__all__ = ["ProbeScene", "StepInfo"]
+__all__ = ["FORCE_LIMIT", "ProbeScene", "StepInfo"]
+
+#: Default guarded-move limit on |f|, N.
+FORCE_LIMIT = 8.0
 
 
 @dataclass(frozen=True)
@@ -100,9 +103,9 @@ class ProbeScene:
         sensor_config: SensorConfig = SensorConfig(),  # noqa: B008
         geometry: FingertipGeometry = FingertipGeometry(),  # noqa: B008
         *,
-        time_step: float = 1.0 / 240.0,
-        substeps: int = 12,
-        force_limit: float = 8.0,
+        time_step: float = TIME_STEP,
+        substeps: int = SUBSTEPS,
+        force_limit: float = FORCE_LIMIT,
         gui: bool = False,
         max_speed: float = 0.25,
         max_angular_speed: float = 3.0,
