@@ -80,7 +80,7 @@ class HingeProbeConfig:
         max_steps: control steps before the episode is truncated.
         time_step: physics time step, s.
         substeps: physics steps per control step (12 at 1/240 s gives 20 Hz control).
-        max_translation: fingertip translation for an action of 1, m.
+        max_translation: fingertip translation for an action of 1, m (10 um to 10 mm).
         max_rotation: fingertip rotation for an action of 1, rad.
         force_limit: guard that stops the fingertip advancing, and where the force penalty
             starts, N.
@@ -125,14 +125,19 @@ class HingeProbeConfig:
         check_int("max_steps", self.max_steps, 1, 100_000)
         check_number("time_step", self.time_step, 1e-4, 0.02)
         check_int("substeps", self.substeps, 1, 100)
-        check_number("max_translation", self.max_translation, 0.0, 0.01, low_open=True)
+        check_number("max_translation", self.max_translation, 1e-5, 0.01)
         check_number("max_rotation", self.max_rotation, 0.0, 0.2, low_open=True)
         check_number("force_limit", self.force_limit, 0.5, 50.0)
         check_bool("randomize", self.randomize)
         # Build every nested config once, so that a bad field fails here, at construction.
         self.skin_config()
         self.sensor_config()
-        self.object_config("scissors")
+        axis = np.asarray(self.object_config("scissors").axis)
+        if self.estimator == "planar" and abs(axis[2]) < (1.0 - 1e-9) * np.linalg.norm(axis):
+            raise ValueError(
+                f"estimator='planar' assumes a vertical axis, got object.axis {axis.tolist()}."
+                " Use estimator='3d'."
+            )
         self.gate_config()
         self.scenario_config()
         task = self.task_config()
@@ -150,7 +155,7 @@ class HingeProbeConfig:
 
     def object_config(self, family: str) -> ObjectConfig:
         """The nominal object of a family with the ``object`` overrides."""
-        if not isinstance(self.object, dict):
+        if not isinstance(self.object, dict) or not all(isinstance(k, str) for k in self.object):
             raise ValueError(f"object must be a dict of ObjectConfig fields, got {self.object!r}")
         return ObjectConfig.family_default(family, **self.object)
 
