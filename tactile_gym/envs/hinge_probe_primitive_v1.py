@@ -132,7 +132,7 @@ class HingeProbePrimitiveEnv(gym.Env):
         terminated = truncated = False
         info: dict = {}
         while skills and not (terminated or truncated):
-            reading = TouchReading.from_obs(self._obs)
+            reading = TouchReading.from_obs(self._dict_obs())
             low = skills[0].act(reading)
             if low is None:
                 skills.pop(0)
@@ -153,6 +153,12 @@ class HingeProbePrimitiveEnv(gym.Env):
         self._over = terminated or truncated
         info = {**info, **terms, "primitive": name, "steps": steps}
         return self._obs, total, terminated, truncated, info
+
+    def _dict_obs(self) -> dict:
+        """The last observation as a dict, which the skills read by name."""
+        if isinstance(self._obs, dict):
+            return self._obs
+        return spaces.unflatten(self.env._dict_space, self._obs)
 
     def render(self):
         return self.env.render()

@@ -122,7 +122,9 @@ class ProbeScene:
         self.force_limit = float(force_limit)
         self.max_speed = float(max_speed)
         self.max_angular_speed = float(max_angular_speed)
-        self._object = HingedObject(self._world, object_config)
+        # At rest at angle 0, or at the nearest limit for joints whose range excludes 0.
+        rest = float(np.clip(0.0, object_config.lower_limit, object_config.upper_limit))
+        self._object = HingedObject(self._world, object_config, rest)
         self._table = Plane(0.0)
         self._skin = SoftSkin(geometry, skin_config)
         self._force_bias = np.asarray(sensor_config.force_bias, dtype=float)
@@ -184,7 +186,7 @@ class ProbeScene:
         quat = _unit_quaternion(fingertip_orientation)
         if object_config is not None and object_config != self._object_config:
             self._object.remove()
-            self._object = HingedObject(self._world, object_config)
+            self._object = HingedObject(self._world, object_config, float(joint_angle))
             self._object_config = object_config
             self._free_reach = float(
                 np.linalg.norm(np.abs(self._object.free_center_local) + self._object.free_half)
