@@ -1,10 +1,11 @@
-"""The README's Python blocks run as written.
+"""The README's Python blocks run as written, and CI runs the README's commands.
 
 Each ```python block of README.md runs on its own, in a fresh interpreter started in the
 repository root, as a reader would paste it after the README's set-up: a block must be
 self-contained. A block that is not meant to run starts with a ``# not run: <why>`` line,
 and only a few may. Files or folders a block creates in the root (a figure, say) are removed
-afterwards.
+afterwards. Every command of the README's Set-up section (set-up, main command, tests) is a
+line of ``.ci/run``.
 """
 
 from __future__ import annotations
@@ -21,10 +22,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+CI = ROOT / ".ci" / "run"
 OPT_OUT = "# not run:"
 MAX_OPT_OUTS = 2
 TIMEOUT = 120  # s, per block
 FENCE = re.compile(r"^([ \t]*)```python[ \t]*\n(.*?)^\1```[ \t]*$", re.MULTILINE | re.DOTALL)
+SHELL = re.compile(r"^```(?:bash|sh|shell)[ \t]*\n(.*?)^```", re.MULTILINE | re.DOTALL)
 
 
 def python_blocks(text: str) -> list[tuple[int, str]]:
@@ -33,6 +36,25 @@ def python_blocks(text: str) -> list[tuple[int, str]]:
         (text.count("\n", 0, m.start()) + 1, textwrap.dedent(m.group(2)))
         for m in FENCE.finditer(text)
     ]
+
+
+def setup_commands(text: str) -> list[str]:
+    """The command lines of the shell blocks in the README's "## Set-up" section, without
+    their comments."""
+    start = re.search(r"^## Set-up", text, re.MULTILINE)
+    assert start, "README.md has no '## Set-up' section"
+    end = re.compile(r"^## ", re.MULTILINE).search(text, start.end())
+    section = text[start.end() : end.start() if end else len(text)]
+    return [
+        command
+        for block in SHELL.findall(section)
+        for command in map(_without_comment, block.splitlines())
+        if command
+    ]
+
+
+def _without_comment(line: str) -> str:
+    return re.sub(r"(^|\s)#.*$", "", line).strip()
 
 
 def opted_out(code: str) -> bool:
@@ -83,6 +105,13 @@ def test_readme_block_runs(line, code):
     )
 
 
+def test_ci_runs_the_readmes_setup_commands():
+    commands = setup_commands(README.read_text())
+    assert any("pytest" in c for c in commands), commands
+    ci = {_without_comment(line) for line in CI.read_text().splitlines()}
+    assert [c for c in commands if c not in ci] == [], ".ci/run differs from the README"
+
+
 def test_blocks_are_found_and_failures_seen(tmp_path):
     text = (
         "Intro\n\n```python\nprint('a')\n```\n\n```bash\nls\n```\n\n"
@@ -96,3 +125,6 @@ def test_blocks_are_found_and_failures_seen(tmp_path):
     assert run_block(blocks[1][1], tmp_path).returncode == 3
     written = run_block("open('figure.png', 'w').write('x')", tmp_path)
     assert written.returncode == 0 and list(tmp_path.iterdir()) == []
+    setup = "## Set-up\n\n```bash\npip install x   # why\n# a comment\n```\n\n## Usage\n"
+    setup += "```bash\nls\n```\n"
+    assert setup_commands(setup) == ["pip install x"]
