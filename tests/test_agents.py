@@ -40,17 +40,45 @@ def flat_ppo_run(tmp_path_factory):
     )  # fmt: skip
 
 
-def test_training_smoke_sac_dict_observations(tmp_path):
+def _sac_run(tmp_path, vec_env: str):
     pytest.importorskip("stable_baselines3")
     run_dir = train.main(
         ["--algo", "sac", "--n-timesteps", "64", "--n-envs", "2", "--log-folder", str(tmp_path),
          "--eval-freq", "0", "--checkpoint-freq", "0", "--no-progress-bar", "--vec-env",
-         "subproc", "--config", str(_tiny_config(tmp_path, "sac"))]
+         vec_env, "--config", str(_tiny_config(tmp_path, "sac"))]
     )  # fmt: skip
     record = yaml.safe_load((run_dir / "config.yml").read_text())
-    # Two envs run in worker processes, which must register the ids themselves.
     assert record["hyperparameters"]["n_envs"] == 2
-    assert record["resources"]["vec_env"] == "subproc"
+    assert record["resources"]["vec_env"] == vec_env
+    return run_dir, record
+
+
+@pytest.mark.slow  # the workers' start-up (each imports torch) takes most of 10 s
+def test_training_in_worker_processes(tmp_path):
+    # Two envs run in worker processes, which must register the ids themselves.
+    run_dir, _ = _sac_run(tmp_path, "subproc")
+    assert (run_dir / "final_model.zip").exists()
+
+
+def test_env_factory_registers_the_ids_in_a_fresh_process():
+    """What the workers of a subprocess vector env rely on, without torch: the factory
+    ``agents.train`` hands them makes the env in a process that never imported tactile_gym."""
+    import functools
+    import multiprocessing
+
+    factory = functools.partial(train.make_env, train.DEFAULT_ENV_ID)
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        assert pool.apply(_action_space_shape, (factory,)) == (6,)
+
+
+def _action_space_shape(factory) -> tuple:
+    env = factory()
+    env.close()
+    return env.action_space.shape
+
+
+def test_training_smoke_sac_dict_observations(tmp_path):
+    run_dir, record = _sac_run(tmp_path, "dummy")
     assert record["hyperparameters"]["n_timesteps"] == 64
     assert record["command"].startswith("python -m agents.train")
     assert (run_dir / "final_model.zip").exists()
@@ -259,8 +287,9 @@ def test_model_run_reads_rl_zoo3_layout(tmp_path):
 
 def test_evaluation_writes_json(tmp_path):
     summaries = evaluate.main(
-        ["--policies", "random", "scripted", "--episodes", "2", "--out", str(tmp_path)]
-    )
+        ["--policies", "random", "scripted", "--episodes", "2", "--out", str(tmp_path),
+         "--env-kwargs", "max_steps:60"]  # 60 steps take the scripted policy past a press
+    )  # fmt: skip
     data = json.loads((tmp_path / "evaluation.json").read_text())
     assert set(data["summaries"]) == {"random", "scripted"}
     assert (tmp_path / "error_vs_step.png").exists()
