@@ -141,7 +141,9 @@ def test_evaluation_labels_and_env_kwargs_per_run(flat_ppo_run, tmp_path):
     shutil.copytree(flat_ppo_run, other)
     models = [str(flat_ppo_run / "final_model.zip"), str(other / "final_model.zip"),
               str(flat_ppo_run / "best_model.zip"), "random"]  # fmt: skip
-    summaries = evaluate.evaluate(models, episodes=1, out=tmp_path, plot=False)
+    # 60-step episodes: the labels and keywords are the point, not the episodes.
+    short = {"max_steps": 60}
+    summaries = evaluate.evaluate(models, episodes=1, out=tmp_path, plot=False, env_kwargs=short)
     assert list(summaries) == [
         f"{flat_ppo_run.name}/final_model",
         f"{other.name}/final_model",
@@ -149,10 +151,12 @@ def test_evaluation_labels_and_env_kwargs_per_run(flat_ppo_run, tmp_path):
         "random",
     ]
     data = json.loads((tmp_path / "evaluation.json").read_text())
-    # The models ran on flat observations, as they were trained; random on the default.
+    # The models ran on flat observations, as they were trained; random on the default; the
+    # keywords given update each run's.
     policies = data["policies"]
-    assert policies[f"{other.name}/final_model"]["env_kwargs"] == {"observation_mode": "flat"}
-    assert policies["random"]["env_kwargs"] == {}
+    flat = {"observation_mode": "flat", **short}
+    assert policies[f"{other.name}/final_model"]["env_kwargs"] == flat
+    assert policies["random"]["env_kwargs"] == short
     assert data["env_id"] == train.DEFAULT_ENV_ID
     with pytest.raises(ValueError, match="listed once"):
         evaluate.policy_labels([models[0], models[0]])
