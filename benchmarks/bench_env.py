@@ -1,97 +1,142 @@
-"""Env step throughput of HingeProbe-v0, against bare physics on the same scene.
+"""Env throughput of the v1 ids, against bare physics on the same scene in the same run.
 
-    python benchmarks/bench_env.py [--steps 400]
+    python benchmarks/bench_env.py [--steps 400] [--ids tactile_gym/HingeProbe-v1 ...]
 
-Rows: one process with random actions (mostly free motion), one process with the scripted
-contact-keeping policy (presses, shears and pushes), and a 2-process async vector env with
-random actions. The baseline is ``stepSimulation`` on the same PyBullet scene, times the
-substeps of one env step, measured in the same run; the ratio says how many times dearer an
-env step (skin, sensing, estimation, observation) is than the rigid-body physics alone.
+One markdown table per id. Rows: one process with random actions (mostly free motion), one
+process with the scripted baseline (``agents.scripted.scripted_policy``: presses, turns), and
+a 2-process async vector env with random actions (its rate is the total of both envs).
+Resets are not timed. The baseline is ``stepSimulation`` alone on the scene the row's env
+used, times the substeps of one control step; the ratio says how many times dearer a control
+step of the env (skin, sensing, gate, estimator, observation) is than the rigid-body physics.
+For the primitive ids a step is a primitive, which runs several control steps of the 6-D env
+underneath: the table gives both.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 import time
+from pathlib import Path
 
-import gymnasium as gym
-import numpy as np
-import pybullet as p
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the checkout's agents/
 
-import tactile_gym  # noqa: F401 - registers the envs
-from agents.scripted import ScriptedProbePolicy
+import gymnasium as gym  # noqa: E402
+import numpy as np  # noqa: E402
+import pybullet as p  # noqa: E402
 
-ENV_ID = "tactile_gym/HingeProbe-v0"
+import tactile_gym  # noqa: E402, F401 - registers the envs
+from agents.scripted import scripted_policy  # noqa: E402
+
+BARE_REPEATS = 2000
 
 
-def bare_physics_per_env_step(env: gym.Env, repeats: int = 2000) -> float:
-    """Seconds of bare ``stepSimulation`` per env step (all its substeps)."""
+def bare_physics_per_control_step(env: gym.Env) -> float:
+    """Seconds of bare ``stepSimulation`` per control step (all its substeps) on the env's
+    scene, as the env left it."""
     scene = env.unwrapped.scene
     client_id = scene.world.client_id
     start = time.perf_counter()
-    for _ in range(repeats):
+    for _ in range(BARE_REPEATS):
         p.stepSimulation(physicsClientId=client_id)
-    per_step = (time.perf_counter() - start) / repeats
-    return per_step * scene.substeps
+    return (time.perf_counter() - start) / BARE_REPEATS * scene.substeps
 
 
-def time_single(policy: str, steps: int) -> tuple[float, float, float]:
-    """(env steps/s, bare-physics seconds per env step, mean contact force)."""
-    env = gym.make(ENV_ID)
+def time_single(env_id: str, policy: str, steps: int) -> dict[str, float]:
+    """Time ``steps`` env steps in this process (resets excluded)."""
+    env = gym.make(env_id)
     obs, _ = env.reset(seed=0)
     env.action_space.seed(0)
-    scripted = ScriptedProbePolicy.for_env(env.unwrapped)
-    forces = []
-    start = time.perf_counter()
+    scripted = scripted_policy(env)
+    scripted.reset()
+    elapsed, control_steps, forces = 0.0, 0, []
     for _ in range(steps):
         action = scripted.get_action(obs) if policy == "scripted" else env.action_space.sample()
-        obs, _, terminated, truncated, _ = env.step(action)
+        start = time.perf_counter()
+        obs, _, terminated, truncated, info = env.step(action)
+        elapsed += time.perf_counter() - start
+        control_steps += info.get("steps", 1)
         forces.append(float(np.linalg.norm(obs["wrench"][:3])))
         if terminated or truncated:
             obs, _ = env.reset()
             scripted.reset()
-    elapsed = time.perf_counter() - start
-    bare = bare_physics_per_env_step(env)
+    bare = bare_physics_per_control_step(env)
     env.close()
-    return steps / elapsed, bare, float(np.mean(forces))
+    return {
+        "steps/s": steps / elapsed,
+        "ms/step": 1e3 * elapsed / steps,
+        "control steps/step": control_steps / steps,
+        "ms/control step": 1e3 * elapsed / control_steps,
+        "bare ms/control step": 1e3 * bare,
+        "mean |f|": float(np.mean(forces)),
+    }
 
 
-def time_vector(steps: int) -> float:
-    envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="async")
+def time_vector(env_id: str, steps: int) -> dict[str, float]:
+    """Total throughput of a 2-process async vector env with random actions."""
+    envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="async")
     envs.reset(seed=0)
     envs.action_space.seed(0)
+    control_steps = 0
     start = time.perf_counter()
     for _ in range(steps):
-        envs.step(envs.action_space.sample())
+        *_, info = envs.step(envs.action_space.sample())
+        control_steps += int(np.sum(info["steps"])) if "steps" in info else 2
     elapsed = time.perf_counter() - start
     envs.close()
-    return 2 * steps / elapsed
+    return {
+        "steps/s": 2 * steps / elapsed,
+        "ms/step": 1e3 * elapsed / (2 * steps),
+        "control steps/step": control_steps / (2 * steps),
+        "ms/control step": 1e3 * elapsed / control_steps,
+    }
+
+
+def table(env_id: str, steps: int) -> str:
+    primitive = gym.make(env_id).action_space.shape == (3,)
+    rows = {
+        "1 process, random actions": time_single(env_id, "random", steps),
+        "1 process, scripted policy": time_single(env_id, "scripted", steps),
+        "2-process async vector env, random actions (total)": time_vector(env_id, steps // 2),
+    }
+    # The vector env's scenes live in its workers: its baseline is the random row's scene.
+    rows["2-process async vector env, random actions (total)"].update(
+        {"bare ms/control step": rows["1 process, random actions"]["bare ms/control step"]}
+    )
+    step = "primitive" if primitive else "env step"
+    lines = [
+        f"`{env_id}`, {steps} {step}s per row ({steps // 2} per env in the vector env)",
+        "",
+        f"| case | {step}s/s | ms per {step} |"
+        + (" control steps per primitive | ms per control step |" if primitive else "")
+        + " bare physics ms per control step | control step / bare physics | mean |f| (N) |",
+        "|---|---:|---:|" + ("---:|---:|" if primitive else "") + "---:|---:|---:|",
+    ]
+    for name, r in rows.items():
+        extra = (
+            f" {r['control steps/step']:.1f} | {r['ms/control step']:.2f} |" if primitive else ""
+        )
+        ratio = r["ms/control step"] / r["bare ms/control step"]
+        force = f"{r['mean |f|']:.1f}" if "mean |f|" in r else "-"
+        lines.append(
+            f"| {name} | {r['steps/s']:,.0f} | {r['ms/step']:.2f} |{extra}"
+            f" {r['bare ms/control step']:.3f} | {ratio:.0f}x | {force} |"
+        )
+    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=400)
+    parser.add_argument("--steps", type=int, default=400, help="steps per row")
+    parser.add_argument("--ids", nargs="+", default=list(tactile_gym.ENV_IDS))
     args = parser.parse_args(argv)
-    rows = []
-    for name, policy in (
-        ("1 process, random actions", "random"),
-        ("1 process, scripted (in contact)", "scripted"),
-    ):
-        rate, bare, force = time_single(policy, args.steps)
-        rows.append((name, rate, 1e3 / rate, bare * 1e3, (1.0 / rate) / bare, force))
-    vec_rate = time_vector(args.steps // 2)
-    print(f"{ENV_ID}, {args.steps} steps per row, 12 substeps at 1/240 s per env step")
-    print()
-    print(
-        "| case | env steps/s | ms per env step | bare physics ms per env step |"
-        " env step / bare physics | mean |f| (N) |"
-    )
-    print("|---|---:|---:|---:|---:|---:|")
-    for name, rate, ms, bare_ms, ratio, force in rows:
-        print(f"| {name} | {rate:,.0f} | {ms:.2f} | {bare_ms:.3f} | {ratio:.0f}x | {force:.1f} |")
-    print(
-        f"| 2-process async vector env, random actions (total) | {vec_rate:,.0f} | - | - | - | - |"
-    )
+    print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the start\n")
+    for env_id in args.ids:
+        print(table(env_id, args.steps))
+        print()
 
 
 if __name__ == "__main__":

@@ -117,7 +117,7 @@ def build_config(cls: type, values: Any, name: str):
     if not isinstance(values, dict):
         raise ValueError(f"{name} must be a dict of {cls.__name__} fields, got {_show(values)}")
     allowed = [f.name for f in dataclasses.fields(cls)]
-    unknown = sorted(set(values) - set(allowed))
+    unknown = sorted(set(values) - set(allowed), key=str)
     if unknown:
         raise ValueError(f"unknown {name} field(s) {unknown}; allowed: {allowed}")
     return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})

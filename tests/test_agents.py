@@ -41,17 +41,45 @@ def flat_ppo_run(tmp_path_factory):
     )  # fmt: skip
 
 
-def test_training_smoke_sac_dict_observations(tmp_path):
+def _sac_run(tmp_path, vec_env: str):
     pytest.importorskip("stable_baselines3")
     run_dir = train.main(
         ["--algo", "sac", "--n-timesteps", "64", "--n-envs", "2", "--log-folder", str(tmp_path),
          "--eval-freq", "0", "--checkpoint-freq", "0", "--no-progress-bar", "--vec-env",
-         "subproc", "--config", str(_tiny_config(tmp_path, "sac"))]
+         vec_env, "--config", str(_tiny_config(tmp_path, "sac"))]
     )  # fmt: skip
     record = yaml.safe_load((run_dir / "config.yml").read_text())
-    # Two envs run in worker processes, which must register the ids themselves.
     assert record["hyperparameters"]["n_envs"] == 2
-    assert record["resources"]["vec_env"] == "subproc"
+    assert record["resources"]["vec_env"] == vec_env
+    return run_dir, record
+
+
+@pytest.mark.slow  # the workers' start-up (each imports torch) takes most of 10 s
+def test_training_in_worker_processes(tmp_path):
+    # Two envs run in worker processes, which must register the ids themselves.
+    run_dir, _ = _sac_run(tmp_path, "subproc")
+    assert (run_dir / "final_model.zip").exists()
+
+
+def test_env_factory_registers_the_ids_in_a_fresh_process():
+    """What the workers of a subprocess vector env rely on, without torch: the factory
+    ``agents.train`` hands them makes the env in a process that never imported tactile_gym."""
+    import functools
+    import multiprocessing
+
+    factory = functools.partial(train.make_env, train.DEFAULT_ENV_ID)
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        assert pool.apply(_action_space_shape, (factory,)) == (6,)
+
+
+def _action_space_shape(factory) -> tuple:
+    env = factory()
+    env.close()
+    return env.action_space.shape
+
+
+def test_training_smoke_sac_dict_observations(tmp_path):
+    run_dir, record = _sac_run(tmp_path, "dummy")
     assert record["hyperparameters"]["n_timesteps"] == 64
     assert record["command"].startswith("python -m agents.train")
     assert (run_dir / "final_model.zip").exists()
@@ -114,7 +142,9 @@ def test_evaluation_labels_and_env_kwargs_per_run(flat_ppo_run, tmp_path):
     shutil.copytree(flat_ppo_run, other)
     models = [str(flat_ppo_run / "final_model.zip"), str(other / "final_model.zip"),
               str(flat_ppo_run / "best_model.zip"), "random"]  # fmt: skip
-    summaries = evaluate.evaluate(models, episodes=1, out=tmp_path, plot=False)
+    # 60-step episodes: the labels and keywords are the point, not the episodes.
+    short = {"max_steps": 60}
+    summaries = evaluate.evaluate(models, episodes=1, out=tmp_path, plot=False, env_kwargs=short)
     assert list(summaries) == [
         f"{flat_ppo_run.name}/final_model",
         f"{other.name}/final_model",
@@ -122,10 +152,12 @@ def test_evaluation_labels_and_env_kwargs_per_run(flat_ppo_run, tmp_path):
         "random",
     ]
     data = json.loads((tmp_path / "evaluation.json").read_text())
-    # The models ran on flat observations, as they were trained; random on the default.
+    # The models ran on flat observations, as they were trained; random on the default; the
+    # keywords given update each run's.
     policies = data["policies"]
-    assert policies[f"{other.name}/final_model"]["env_kwargs"] == {"observation_mode": "flat"}
-    assert policies["random"]["env_kwargs"] == {}
+    flat = {"observation_mode": "flat", **short}
+    assert policies[f"{other.name}/final_model"]["env_kwargs"] == flat
+    assert policies["random"]["env_kwargs"] == short
     assert data["env_id"] == train.DEFAULT_ENV_ID
     with pytest.raises(ValueError, match="listed once"):
         evaluate.policy_labels([models[0], models[0]])
@@ -260,8 +292,9 @@ def test_model_run_reads_rl_zoo3_layout(tmp_path):
 
 def test_evaluation_writes_json(tmp_path):
     summaries = evaluate.main(
-        ["--policies", "random", "scripted", "--episodes", "2", "--out", str(tmp_path)]
-    )
+        ["--policies", "random", "scripted", "--episodes", "2", "--out", str(tmp_path),
+         "--env-kwargs", "max_steps:60"]  # 60 steps take the scripted policy past a press
+    )  # fmt: skip
     data = json.loads((tmp_path / "evaluation.json").read_text())
     assert set(data["summaries"]) == {"random", "scripted"}
     assert (tmp_path / "error_vs_step.png").exists()

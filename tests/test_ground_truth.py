@@ -15,6 +15,7 @@ and so does a reduced Table I reproduction.
 
 from __future__ import annotations
 
+import functools
 import re
 import sys
 from pathlib import Path
@@ -50,6 +51,7 @@ FORBIDDEN = (
 SCENE_FILE = "tactile_gym/sim/scene.py"
 
 
+@functools.cache  # resolving every frame's file on every read took most of the audit's time
 def _relative(filename: str) -> str:
     try:
         return Path(filename).resolve().relative_to(ROOT).as_posix()

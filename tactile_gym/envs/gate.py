@@ -109,7 +109,12 @@ class GateConfig:
 
     def __post_init__(self) -> None:
         check_range("gate.force_band", self.force_band, 0.0, 50.0, allow_equal=False)
-        check_number("gate.touch_force", self.touch_force, 0.0, self.force_band[0], low_open=True)
+        check_number("gate.touch_force", self.touch_force, 0.0, 50.0, low_open=True)
+        if self.touch_force > self.force_band[0]:
+            raise ValueError(
+                f"gate.touch_force must be <= gate.force_band[0] ({self.force_band[0]:g} N),"
+                f" got {self.touch_force!r}"
+            )
         check_int("gate.dwell", self.dwell, 1, 100)
         check_number("gate.still_translation", self.still_translation, 0.0, 1e-3, low_open=True)
         check_number("gate.still_rotation", self.still_rotation, 0.0, 0.1, low_open=True)

@@ -10,7 +10,7 @@ from gymnasium import spaces
 
 from tactile_gym.envs.hinge_probe_v1 import HingeProbeEnv
 from tactile_gym.envs.skills import PRIMITIVES, PrimitiveExecutor, PrimitiveScales
-from tactile_gym.validation import check_int, check_number
+from tactile_gym.validation import check_choice, check_int, check_number
 
 __all__ = ["HingeProbePrimitiveEnv", "PRIMITIVES"]
 
@@ -74,9 +74,9 @@ class HingeProbePrimitiveEnv(gym.Env):
         self,
         render_mode: str | None = None,
         max_primitives: int = 64,
-        probe_across: float = 0.003,
-        probe_along: float = 0.01,
-        turn_distance: float = 0.02,
+        probe_across: float = PrimitiveScales.probe_across,
+        probe_along: float = PrimitiveScales.probe_along,
+        turn_distance: float = PrimitiveScales.turn_distance,
         **kwargs: Any,
     ) -> None:
         self.max_primitives = check_int("max_primitives", max_primitives, 1, 10_000)
@@ -87,7 +87,9 @@ class HingeProbePrimitiveEnv(gym.Env):
         )
         # The skills read dict observations: the env underneath always makes them, and this
         # env flattens its own when asked to.
-        self.observation_mode = kwargs.get("observation_mode", "dict")
+        self.observation_mode = check_choice(
+            "observation_mode", kwargs.get("observation_mode", "dict"), ("dict", "flat")
+        )
         self.env = HingeProbeEnv(render_mode=render_mode, **{**kwargs, "observation_mode": "dict"})
         self.render_mode = render_mode
         self.metadata = self.env.metadata

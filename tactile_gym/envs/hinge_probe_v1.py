@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import sys
 from dataclasses import dataclass, field
@@ -25,6 +26,8 @@ from tactile_gym.envs.touch import Touch, TouchSensor
 from tactile_gym.estimation import LOSSES, AxisEstimate, AxisPrior, JointAxisEstimator, axis_error
 from tactile_gym.sensing import FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
+from tactile_gym.sim.scene import FORCE_LIMIT
+from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
 from tactile_gym.validation import (
     build_config,
     check_bool,
@@ -76,7 +79,7 @@ class HingeProbeConfig:
         max_steps: control steps before the episode is truncated.
         time_step: physics time step, s.
         substeps: physics steps per control step (12 at 1/240 s gives 20 Hz control).
-        max_translation: fingertip translation for an action of 1, m.
+        max_translation: fingertip translation for an action of 1, m (10 um to 10 mm).
         max_rotation: fingertip rotation for an action of 1, rad.
         force_limit: guard that stops the fingertip advancing, and where the force penalty
             starts, N.
@@ -90,11 +93,11 @@ class HingeProbeConfig:
     estimator_loss: str = "soft_l1"
     observation_mode: str = "dict"
     max_steps: int = 400
-    time_step: float = 1.0 / 240.0
-    substeps: int = 12
+    time_step: float = TIME_STEP
+    substeps: int = SUBSTEPS
     max_translation: float = 0.002
     max_rotation: float = float(np.deg2rad(3.0))
-    force_limit: float = 8.0
+    force_limit: float = FORCE_LIMIT
     randomize: bool = True
     skin: dict = field(default_factory=dict)
     sensor: dict = field(default_factory=dict)
@@ -121,14 +124,19 @@ class HingeProbeConfig:
         check_int("max_steps", self.max_steps, 1, 100_000)
         check_number("time_step", self.time_step, 1e-4, 0.02)
         check_int("substeps", self.substeps, 1, 100)
-        check_number("max_translation", self.max_translation, 0.0, 0.01, low_open=True)
+        check_number("max_translation", self.max_translation, 1e-5, 0.01)
         check_number("max_rotation", self.max_rotation, 0.0, 0.2, low_open=True)
         check_number("force_limit", self.force_limit, 0.5, 50.0)
         check_bool("randomize", self.randomize)
         # Build every nested config once, so that a bad field fails here, at construction.
         self.skin_config()
         self.sensor_config()
-        self.object_config("scissors")
+        axis = np.asarray(self.object_config("scissors").axis)
+        if self.estimator == "planar" and abs(axis[2]) < (1.0 - 1e-9) * np.linalg.norm(axis):
+            raise ValueError(
+                f"estimator='planar' assumes a vertical axis, got object.axis {axis.tolist()}."
+                " Use estimator='3d'."
+            )
         self.gate_config()
         self.scenario_config()
         task = self.task_config()
@@ -146,7 +154,7 @@ class HingeProbeConfig:
 
     def object_config(self, family: str) -> ObjectConfig:
         """The nominal object of a family with the ``object`` overrides."""
-        if not isinstance(self.object, dict):
+        if not isinstance(self.object, dict) or not all(isinstance(k, str) for k in self.object):
             raise ValueError(f"object must be a dict of ObjectConfig fields, got {self.object!r}")
         return ObjectConfig.family_default(family, **self.object)
 
@@ -611,20 +619,53 @@ class HingeProbeEnv(gym.Env):
 
     def _reset_distribution_prior(self) -> AxisPrior:
         """The prior from the reset distribution (fixed seed; never this episode's truth)."""
-        rng = np.random.default_rng(0)
-        pins, directions = [], []
-        for _ in range(PRIOR_SAMPLES if self.config.randomize else 1):
-            scenario = sample_scenario(
-                rng,
-                self.config.families,
-                self.scenario_config,
-                self.geometry,
-                self.config.randomize,
-                self.config.object,
-            )
-            pins.append(scenario.object_config.joint_position)
-            directions.append(scenario.object_config.axis)
-        return AxisPrior.from_samples(np.array(pins), np.array(directions))
+        cfg = self.config
+        return _reset_distribution_prior(
+            cfg.families,
+            _frozen(dataclasses.asdict(self.scenario_config)),
+            self.geometry,
+            cfg.randomize,
+            _frozen(cfg.object),
+        )
+
+
+@functools.lru_cache(maxsize=64)
+def _reset_distribution_prior(
+    families: tuple[str, ...],
+    scenario: tuple,
+    geometry: FingertipGeometry,
+    randomize: bool,
+    object_overrides: tuple,
+) -> AxisPrior:
+    """The prior of one reset distribution, drawn once per process.
+
+    Its ``PRIOR_SAMPLES`` draws take about 0.4 s, most of a ``gym.make``, and every env made
+    with the same families, ranges and overrides draws the same scenarios from the same seed.
+    ``scenario`` and ``object_overrides`` are the ``_frozen`` ``ScenarioConfig`` fields and
+    ``object`` overrides. Envs share the result, so its arrays are read-only.
+    """
+    scenario_config = ScenarioConfig(**dict(scenario))
+    rng = np.random.default_rng(0)
+    pins, directions = [], []
+    for _ in range(PRIOR_SAMPLES if randomize else 1):
+        drawn = sample_scenario(
+            rng, families, scenario_config, geometry, randomize, dict(object_overrides)
+        )
+        pins.append(drawn.object_config.joint_position)
+        directions.append(drawn.object_config.axis)
+    prior = AxisPrior.from_samples(np.array(pins), np.array(directions))
+    for array in (prior.pin, prior.pin_cov, prior.direction):
+        array.flags.writeable = False
+    return prior
+
+
+def _frozen(value: Any) -> Any:
+    """A hashable copy of a config value: dicts as sorted item pairs, sequences as tuples."""
+    if isinstance(value, dict):
+        return tuple(sorted((key, _frozen(item)) for key, item in value.items()))
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return tuple(_frozen(item) for item in value)
+    return value
 
 
 def _box(low: np.ndarray, high: np.ndarray) -> spaces.Box:

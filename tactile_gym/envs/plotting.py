@@ -1,4 +1,4 @@
-"""Top-view plots in the style of the paper's Fig. 12/13 (needs matplotlib, the ``plot`` extra).
+"""Top-view plots in the style of the paper's Fig. 12/13, drawn with matplotlib.
 
 Everything is drawn in the world x-y plane, in millimetres: measured contact points (green
 squares) with their edge directions (green lines), the true joint axis (blue circle) and the

@@ -116,7 +116,7 @@ class FingertipGeometry:
         p = _as_points(points)
         return p - self.signed_distance(p)[..., None] * self.surface_normal(p)
 
-    def sample_surface(self, spacing: float, z_min: float = 0.0) -> SurfaceSamples:
+    def sample_surface(self, spacing: float, z_min: float) -> SurfaceSamples:
         """Spread points over the outer surface at roughly ``spacing`` apart.
 
         The hemisphere is covered by a Fibonacci spiral (near-uniform area per point) and the

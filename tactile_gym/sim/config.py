@@ -125,6 +125,7 @@ class ObjectConfig:
 
     def __post_init__(self) -> None:
         check_choice("object.family", self.family, FAMILIES)
+        check_number("object.edge_radius", self.edge_radius, 0.0, 0.01)
         for name in ("free_link_size", "fixed_link_size"):
             size = check_vector(f"object.{name}", getattr(self, name), bound=0.5)
             if min(size) < 1e-3:
@@ -136,13 +137,13 @@ class ObjectConfig:
                 )
             object.__setattr__(self, name, size)
         check_number("object.pin_overlap", self.pin_overlap, 0.0, 0.1)
-        check_number("object.edge_radius", self.edge_radius, 0.0, 0.01)
         check_number("object.damping", self.damping, 0.0, 10.0)
         check_number("object.holding_torque", self.holding_torque, 0.0, 10.0)
         check_number("object.free_link_mass", self.free_link_mass, 1e-3, 10.0)
         position = check_vector("object.joint_position", self.joint_position, bound=1.0)
-        axis = check_vector("object.axis", self.axis, nonzero=True)
-        link = check_vector("object.link_direction", self.link_direction, nonzero=True)
+        # Directions are normalised on use; the bound keeps their norms finite.
+        axis = check_vector("object.axis", self.axis, bound=1e6, nonzero=True)
+        link = check_vector("object.link_direction", self.link_direction, bound=1e6, nonzero=True)
         for name, value in (("joint_position", position), ("axis", axis), ("link_direction", link)):
             object.__setattr__(self, name, value)
         a = np.asarray(axis) / np.linalg.norm(axis)
@@ -169,9 +170,14 @@ class ObjectConfig:
         return np.column_stack([x, np.cross(z, x), z])
 
     @classmethod
-    def family_default(cls, family: str, **overrides: Any) -> ObjectConfig:
+    def family_default(cls, family: str, /, **overrides: Any) -> ObjectConfig:
         """A family's object: its preset ``configs/objects/<family>.yml`` with ``overrides``."""
         check_choice("family", family, FAMILIES)
+        if "family" in overrides:
+            raise ValueError(
+                f"object.family is the name of the family drawn ({family!r}) and cannot be"
+                f" overridden, got {overrides['family']!r}; choose the families instead"
+            )
         return build_config(cls, {**_family_preset(family), **overrides}, "object")
 
     @classmethod

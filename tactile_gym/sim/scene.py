@@ -32,7 +32,7 @@ from tactile_gym.sim.config import ObjectConfig, SkinConfig
 from tactile_gym.sim.objects import FREE_BODY, HingedObject
 from tactile_gym.sim.primitives import Plane
 from tactile_gym.sim.skin import Contact, SoftSkin
-from tactile_gym.sim.world import World
+from tactile_gym.sim.world import SUBSTEPS, TIME_STEP, World
 from tactile_gym.spatial import (
     matrix_to_quaternion,
     matrix_to_rotvec,
@@ -40,7 +40,10 @@ from tactile_gym.spatial import (
     rotvec_to_matrix,
 )
 
-__all__ = ["ProbeScene", "StepInfo"]
+__all__ = ["FORCE_LIMIT", "ProbeScene", "StepInfo"]
+
+#: Default guarded-move limit on |f|, N.
+FORCE_LIMIT = 8.0
 
 
 @dataclass(frozen=True)
@@ -100,9 +103,9 @@ class ProbeScene:
         sensor_config: SensorConfig = SensorConfig(),  # noqa: B008
         geometry: FingertipGeometry = FingertipGeometry(),  # noqa: B008
         *,
-        time_step: float = 1.0 / 240.0,
-        substeps: int = 12,
-        force_limit: float = 8.0,
+        time_step: float = TIME_STEP,
+        substeps: int = SUBSTEPS,
+        force_limit: float = FORCE_LIMIT,
         gui: bool = False,
         max_speed: float = 0.25,
         max_angular_speed: float = 3.0,
@@ -119,7 +122,9 @@ class ProbeScene:
         self.force_limit = float(force_limit)
         self.max_speed = float(max_speed)
         self.max_angular_speed = float(max_angular_speed)
-        self._object = HingedObject(self._world, object_config)
+        # At rest at angle 0, or at the nearest limit for joints whose range excludes 0.
+        rest = float(np.clip(0.0, object_config.lower_limit, object_config.upper_limit))
+        self._object = HingedObject(self._world, object_config, rest)
         self._table = Plane(0.0)
         self._skin = SoftSkin(geometry, skin_config)
         self._force_bias = np.asarray(sensor_config.force_bias, dtype=float)
@@ -181,7 +186,7 @@ class ProbeScene:
         quat = _unit_quaternion(fingertip_orientation)
         if object_config is not None and object_config != self._object_config:
             self._object.remove()
-            self._object = HingedObject(self._world, object_config)
+            self._object = HingedObject(self._world, object_config, float(joint_angle))
             self._object_config = object_config
             self._free_reach = float(
                 np.linalg.norm(np.abs(self._object.free_center_local) + self._object.free_half)

@@ -13,7 +13,12 @@ from __future__ import annotations
 import pybullet as p
 from pybullet_utils.bullet_client import BulletClient
 
-__all__ = ["World"]
+__all__ = ["SUBSTEPS", "TIME_STEP", "World"]
+
+#: Default physics step, s (PyBullet's own).
+TIME_STEP = 1.0 / 240.0
+#: Default physics steps per control step: 20 Hz control at ``TIME_STEP``.
+SUBSTEPS = 12
 
 
 class World:
@@ -28,8 +33,8 @@ class World:
 
     def __init__(
         self,
-        time_step: float = 1.0 / 240.0,
-        substeps: int = 12,
+        time_step: float = TIME_STEP,
+        substeps: int = SUBSTEPS,
         gui: bool = False,
         gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
     ) -> None:
