@@ -1204,3 +1204,30 @@ def test_import_without_pybullet() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
+
+
+def test_robust_planar_fit_survives_a_first_triple_that_explains_nothing() -> None:
+    """Measurements a learning policy made (captured from a training run): six presses near
+    one edge and one of the link's end (the fifth). The consensus's first triple explained none
+    of them, and its trial count divided by log(1 - 0)."""
+    points = np.array(
+        [[0.06278, 0.09212, 0.00777], [0.08075, 0.11786, 0.00761], [0.09032, 0.12026, 0.00733],
+         [0.09938, 0.12347, 0.00744], [0.10183, 0.1252, 0.00709], [0.1, 0.1232, 0.00707],
+         [0.09854, 0.12199, 0.00664]]
+    )  # fmt: skip
+    edges = np.array(
+        [[0.97915, -0.20312, 0.0], [0.96414, 0.2654, 0.0], [0.94998, 0.31232, 0.0],
+         [0.90543, 0.42449, 0.0], [0.34337, 0.9392, 0.0], [0.89357, 0.44892, 0.0],
+         [0.95637, 0.29215, 0.0]]
+    )  # fmt: skip
+    edge_std = np.sqrt(2.0) * np.radians([1.69, 1.147, 0.841, 1.342, 0.838, 0.809, 0.787])
+    prior = AxisPrior(
+        pin=np.array([0.01681, 0.10512, 0.004]),
+        pin_cov=np.diag([5.93e-3**2, 5.80e-3**2, 1e-10]),
+        direction=np.array([0.0, 0.0, 1.0]),
+        angle_std=0.0,
+    )
+    est = fit_axis_planar(
+        points, edges, point_std=0.001, edge_std=edge_std, loss="soft_l1", prior=prior
+    )
+    assert est.degenerate or np.all(np.isfinite(est.point))

@@ -193,10 +193,12 @@ def consensus(
             key = (-scale,)
         if best_key is None or key > best_key:
             best, best_key, best_fit, best_scale = inl, key, fit, scale
-            frac = min(count / total, 1.0 - 1e-9)
-            needed = min(
-                _CONSENSUS_TRIALS, int(math.ceil(math.log(0.01) / math.log(1.0 - frac**3)))
-            )
+            # Trials for a 99 % chance of one all-inlier triple; as many as allowed when the
+            # best triple so far explains (almost) nothing, where the formula's log is 0.
+            good = min(count / total, 1.0 - 1e-9) ** 3
+            needed = _CONSENSUS_TRIALS
+            if good > 1e-12:
+                needed = min(needed, int(math.ceil(math.log(0.01) / math.log1p(-good))))
     if best is None or best.sum() < 4:
         return None
     return best, best_fit, best_scale
