@@ -2,10 +2,10 @@
 
 Each policy acts on the 6-D fingertip actions (the primitive ids run the same gate under their
 primitives, and are attacked with random primitives). The truth is read only here, after the
-episodes: every accepted measurement is compared with the nearest long edge of the free
-link's face that looks up (both long edges of these symmetric links are valid measurements of
-one edge distance, ``tactile_gym/envs/touch.py``). Required (issue "HingeProbe-v1"): P95 edge
-error <= 5 deg and P95 distance from the edge line <= 3 mm.
+episodes: every accepted measurement is compared with the nearest long edge of the links'
+top faces (all lie at the one distance from the axis that the fit assumes, so each is a valid
+measurement: ``tactile_gym/envs/touch.py``, ``tactile_gym/envs/gate.py``). Required (issue
+"HingeProbe-v1"): P95 edge error <= 5 deg and P95 distance from the edge line <= 3 mm.
 
 The full attack (60 episodes per id) is ``slow``; the default run keeps a short one.
 """
@@ -183,16 +183,39 @@ ADVERSARIES = (
 )
 
 
-def _errors_against_both_long_edges(u, m):
-    """Edge angle (deg) and line distance (m) to the nearest long edge of the top face."""
+def _long_edges(u):
+    """The long top edges of both links as segments (start, unit direction, length), world."""
     cfg = u.scene.object_config
-    origin, direction, side, top = probed_edge(cfg, u.scene.joint_angle)
-    width = cfg.free_link_size[1]
+    origin, direction, side, _ = probed_edge(cfg, u.scene.joint_angle)
+    hinge = cfg.hinge_rotation()
+    pin = np.asarray(cfg.joint_position)
+    free_start = origin - cfg.pin_overlap * direction
+    segments = [
+        (free_start, direction, cfg.free_link_size[0]),
+        (free_start - side * cfg.free_link_size[1], direction, cfg.free_link_size[0]),
+    ]
+    length = cfg.fixed_link_size[0]
+    top = pin + hinge[:, 2] * cfg.fixed_link_size[2] / 2 - hinge[:, 0] * (length - cfg.pin_overlap)
+    for sign in (1.0, -1.0):
+        segments.append(
+            (top + sign * hinge[:, 1] * cfg.fixed_link_size[1] / 2, hinge[:, 0], length)
+        )
+    return segments
+
+
+def _errors_against_both_long_edges(u, m):
+    """Edge angle (deg) and distance (m) to the nearest long top edge of either link.
+
+    Both links are centred on the pin, so the long edges of the free link's face, and those
+    of the fixed link beside the pin, all lie at the one distance from the axis that the fit
+    assumes; a press on any of them is a valid measurement. Ends and corners are not. The
+    edges are segments: the fixed link's edge line extended over the free link is no edge.
+    """
     best = (np.inf, np.inf)
-    for o in (origin, origin - side * width):
-        v = m.point - o
-        distance = float(np.linalg.norm(v - (v @ direction) * direction))
-        angle = float(np.degrees(np.arccos(min(1.0, abs(m.edge @ direction)))))
+    for start, d, length in _long_edges(u):
+        t = float(np.clip((m.point - start) @ d, 0.0, length))
+        distance = float(np.linalg.norm(m.point - (start + t * d)))
+        angle = float(np.degrees(np.arccos(min(1.0, abs(m.edge @ d)))))
         best = min(best, (distance, angle))
     return best[1], best[0]
 
@@ -251,7 +274,8 @@ def test_gate_survives_a_short_attack():
 @pytest.mark.parametrize("env_id", [e for e in tactile_gym.ENV_IDS if "Primitive" not in e])
 def test_gate_survives_the_full_attack(env_id):
     angles, distances = attack(env_id, episodes=60, steps=250, seed=100)
-    _check(angles, distances, at_least=20)
+    # On tilted faces most adversarial presses are oblique and refused: fewer get through.
+    _check(angles, distances, at_least=15)
 
 
 @pytest.mark.slow

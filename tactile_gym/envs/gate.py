@@ -36,7 +36,24 @@ skin measures"); each uses the readings and the fingertip's pose since the skin 
    way under the press lets the finger travel 5-10 times that, and turns the edge during the
    press), and it did not turn by more than ``max_press_rotation``.
 
+7. *Only the object*: the skin's lowest point stays at least ``table_clearance`` above the
+   table (z = 0 in the world frame, which the robot knows like its workbench): a skin that
+   also rests on the table sums two contacts into one wrench (measured 10-60 deg off).
+
 One press measurement is taken per touch; a new one needs the skin to lift off first.
+
+*The same edge*: a press near the link's end measures the end's edge, and one at a corner a
+mix of two (both edges cut the patch: the edge comes out up to 45 deg off); no single wrench
+tells them from the long edge. Their edge lines, though, lie tens of millimetres further from
+the axis than the long edge's, and the fit assumes one distance. The reset distribution fixes
+that distance (half the link's width for these objects, known before touching, like the
+axis prior), so a press is kept only if its edge line lies at that distance from the current
+estimated axis, within ``identity_tolerance`` plus three times the spread that the distance's
+own spread, the press's errors and the estimate's uncertainty predict
+(``MeasurementGate.same_edge``; the env sets ``edge_distance``). Near the hinge the links
+overlap around the pin and a press can touch both, mixing two links' edges; a press whose
+contact lies within ``min_hinge_distance`` (plus the estimate's position uncertainty) of the
+estimated axis is not kept either.
 
 Slides along the edge are not measured. A line through the contact points of a slide along
 the edge does give the edge, but while the skin sticks and carries the link round (the way a
@@ -55,11 +72,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.envs.touch import Touch, TouchSensor
+from tactile_gym.estimation import AxisEstimate
 from tactile_gym.sensing import indentation_depth
 from tactile_gym.spatial import matrix_to_rotvec
 from tactile_gym.validation import check_int, check_number, check_range
 
-__all__ = ["GateConfig", "Measurement", "MeasurementGate"]
+__all__ = ["GateConfig", "Measurement", "MeasurementGate", "line_distance"]
 
 _DEG = np.pi / 180.0
 
@@ -85,6 +103,11 @@ class GateConfig:
         max_travel_ratio: largest travel since the first contact over the flat-face
             indentation at the measured force.
         max_press_rotation: largest fingertip rotation since the skin was free, rad.
+        table_clearance: least height of the skin's lowest point above the table, m.
+        identity_tolerance: the slack of the same-edge test beyond three predicted sigmas, m
+            (the contact point's own depth inside the face varies by about 2 mm).
+        min_hinge_distance: least distance of a kept contact from the estimated axis, m (the
+            links overlap 10 mm past the pin, and a patch reaches 5 mm).
         point_std: 1-sigma error of a measured contact point handed to the estimator, m (the
             point sits 0.9-3.1 mm inside the face, at the truncated patch's pressure centre).
         edge_std_floor: least edge error handed to the estimator, rad: the 0.1-0.9 deg model
@@ -104,6 +127,9 @@ class GateConfig:
     bias_budget: float = 5.0 * _DEG
     max_travel_ratio: float = 2.5
     max_press_rotation: float = 0.2 * _DEG
+    table_clearance: float = 0.001
+    identity_tolerance: float = 0.002
+    min_hinge_distance: float = 0.02
     point_std: float = 0.001
     edge_std_floor: float = 1.0 * _DEG
 
@@ -126,6 +152,9 @@ class GateConfig:
         check_number("gate.bias_budget", self.bias_budget, 0.0, np.pi / 4, low_open=True)
         check_number("gate.max_travel_ratio", self.max_travel_ratio, 1.0, 20.0)
         check_number("gate.max_press_rotation", self.max_press_rotation, 0.0, 0.1, low_open=True)
+        check_number("gate.table_clearance", self.table_clearance, 0.0, 0.05)
+        check_number("gate.identity_tolerance", self.identity_tolerance, 0.0, 0.05)
+        check_number("gate.min_hinge_distance", self.min_hinge_distance, 0.0, 0.1)
         check_number("gate.point_std", self.point_std, 0.0, 0.01, low_open=True)
         check_number("gate.edge_std_floor", self.edge_std_floor, 0.0, np.pi / 4)
 
@@ -149,6 +178,17 @@ class Measurement:
     edge_cov: np.ndarray
 
 
+def line_distance(point, direction, axis_point, axis) -> float:
+    """Distance between the line ``point + t direction`` and the line ``axis_point + s axis``
+    (unit directions), m."""
+    w = np.asarray(point, dtype=float) - np.asarray(axis_point, dtype=float)
+    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    normal = np.cross(direction, axis)
+    if np.linalg.norm(normal) < 1e-9:  # parallel lines
+        return float(np.linalg.norm(w - (w @ axis) * axis))
+    return abs(float(w @ normal)) / float(np.linalg.norm(normal))
+
+
 def _floored(edge: np.ndarray, cov: np.ndarray, floor: float) -> np.ndarray:
     """``cov`` plus isotropic variance so that its total is at least ``floor^2``."""
     missing = floor * floor - float(np.trace(cov))
@@ -168,7 +208,10 @@ class MeasurementGate:
     def __init__(self, config: GateConfig, sensor: TouchSensor) -> None:
         self.config = config
         self.sensor = sensor
+        #: Expected distance of the probed edge from the axis (mean, std), m, or None.
+        self.edge_distance: tuple[float, float] | None = None
         self._radius = sensor.geometry.outer_radius
+        self._centre = sensor.geometry.sphere_center
         self.reset()
 
     def reset(self) -> None:
@@ -269,10 +312,46 @@ class MeasurementGate:
             return self._reject(f"press travel {travel:.2e} m since contact: the link gave way")
         if np.linalg.norm(matrix_to_rotvec(rotation @ r0.T)) > cfg.max_press_rotation:
             return self._reject("fingertip turned during the press")
+        lowest = float((rotation @ self._centre + position)[2]) - self._radius
+        if lowest < cfg.table_clearance:
+            return self._reject(f"the skin reaches {lowest * 1e3:.1f} mm above the table")
         # The drag bias turns the edge within the face: about the force line.
         turn = np.cross(touch.force / magnitude, touch.edge)
         cov = touch.edge_cov + bias * bias * np.outer(turn, turn) / (turn @ turn)
         return self._accept(touch.point, touch.edge, cov)
+
+    def same_edge(self, m: Measurement, estimate: AxisEstimate) -> bool:
+        """Whether a measurement may enter the fit: its contact is clear of the hinge, and its
+        edge line lies at the expected distance (``edge_distance``: mean, std, m; unchecked
+        when None) from the estimated axis (module docstring)."""
+        u = estimate.direction
+        w = m.point - estimate.point
+        radius = float(np.linalg.norm(w - (w @ u) * u))
+        if radius < self.config.min_hinge_distance + estimate.position_std:
+            self.last_rejection = (
+                f"too near the hinge ({radius * 1e3:.1f} mm from the estimated axis): the links"
+                " overlap there"
+            )
+            return False
+        if self.edge_distance is None:
+            return True
+        mean, std = self.edge_distance
+        distance = line_distance(m.point, m.edge, estimate.point, u)
+        along = float(m.edge @ u)
+        # Along the edge from the contact point to the foot of the common perpendicular.
+        lever = 0.0
+        if abs(along) < 1.0 - 1e-9:
+            lever = (along * float(u @ w) - float(m.edge @ w)) / (1.0 - along * along)
+        spread = np.sqrt(
+            std**2 + m.point_std**2 + (lever * m.edge_std) ** 2 + estimate.position_std**2
+        )
+        if abs(distance - mean) <= self.config.identity_tolerance + 3.0 * spread:
+            return True
+        self.last_rejection = (
+            f"another edge: its line lies {distance * 1e3:.1f} mm from the estimated axis,"
+            f" the probed edge {mean * 1e3:.1f} +- {std * 1e3:.1f} mm"
+        )
+        return False
 
     def _accept(self, point: np.ndarray, edge: np.ndarray, cov: np.ndarray) -> Measurement:
         cov = _floored(edge, cov, self.config.edge_std_floor)

@@ -14,8 +14,8 @@ import numpy as np
 from gymnasium import spaces
 
 from tactile_gym.envs.controller import DeltaPoseController
-from tactile_gym.envs.gate import GateConfig, Measurement, MeasurementGate
-from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, sample_scenario
+from tactile_gym.envs.gate import GateConfig, Measurement, MeasurementGate, line_distance
+from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, probed_edge, sample_scenario
 from tactile_gym.envs.task import (
     TERMINATION_REASONS,
     AxisEstimationTask,
@@ -359,7 +359,7 @@ class HingeProbeEnv(gym.Env):
         self.controller = DeltaPoseController(
             cfg.max_translation, cfg.max_rotation, self.geometry.sphere_center
         )
-        self.prior = self._reset_distribution_prior()
+        self.prior, self.gate.edge_distance = self._reset_distribution_prior()
         # The estimator fuses the prior with the measurements (maximum a posteriori), so its
         # estimate is the prior before any measurement and leaves it as evidence accrues.
         self.estimator = JointAxisEstimator(
@@ -534,6 +534,7 @@ class HingeProbeEnv(gym.Env):
         accepted = self.gate.offer(
             self._wrench, scene.fingertip_rotation, scene.fingertip_position, self._touch
         )
+        accepted = [m for m in accepted if self.gate.same_edge(m, self._estimate)]
         for m in accepted:
             self.estimator.add(m.point, m.edge, m.point_std, m.edge_std, edge_cov=m.edge_cov)
             self._count_direction(m.edge)
@@ -617,7 +618,7 @@ class HingeProbeEnv(gym.Env):
             "joint_angle": float(self._scene.joint_angle),
         }
 
-    def _reset_distribution_prior(self) -> AxisPrior:
+    def _reset_distribution_prior(self) -> tuple[AxisPrior, tuple[float, float]]:
         """The prior from the reset distribution (fixed seed; never this episode's truth)."""
         cfg = self.config
         return _reset_distribution_prior(
@@ -636,8 +637,9 @@ def _reset_distribution_prior(
     geometry: FingertipGeometry,
     randomize: bool,
     object_overrides: tuple,
-) -> AxisPrior:
-    """The prior of one reset distribution, drawn once per process.
+) -> tuple[AxisPrior, tuple[float, float]]:
+    """The prior of one reset distribution, drawn once per process: the axis, and the
+    distance of the probed edge from it (mean, std; ``MeasurementGate.same_edge``).
 
     Its ``PRIOR_SAMPLES`` draws take about 0.4 s, most of a ``gym.make``, and every env made
     with the same families, ranges and overrides draws the same scenarios from the same seed.
@@ -646,17 +648,22 @@ def _reset_distribution_prior(
     """
     scenario_config = ScenarioConfig(**dict(scenario))
     rng = np.random.default_rng(0)
-    pins, directions = [], []
+    pins, directions, distances = [], [], []
     for _ in range(PRIOR_SAMPLES if randomize else 1):
         drawn = sample_scenario(
             rng, families, scenario_config, geometry, randomize, dict(object_overrides)
         )
-        pins.append(drawn.object_config.joint_position)
-        directions.append(drawn.object_config.axis)
+        config = drawn.object_config
+        pins.append(config.joint_position)
+        directions.append(config.axis)
+        origin, edge, _, _ = probed_edge(config, 0.0)
+        distances.append(
+            line_distance(origin, edge, np.asarray(config.joint_position), config.axis)
+        )
     prior = AxisPrior.from_samples(np.array(pins), np.array(directions))
     for array in (prior.pin, prior.pin_cov, prior.direction):
         array.flags.writeable = False
-    return prior
+    return prior, (float(np.mean(distances)), float(np.std(distances)))
 
 
 def _frozen(value: Any) -> Any:
