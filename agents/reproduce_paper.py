@@ -69,6 +69,7 @@ import numpy as np
 
 from tactile_gym.envs.plotting import draw_estimate, draw_measurements
 from tactile_gym.estimation import fit_axis_planar, fit_axis_simple
+from tactile_gym.presets import load_preset, preset_names
 from tactile_gym.sensing import ContactEstimate, estimate_contact
 from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
 from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
@@ -112,21 +113,19 @@ START_ANGLE_RANGE = math.radians(10.0)  # rad, the grip's true start angle, +- (
 HAND_HOLD_TORQUE = 2.0  # N m, the hand steadying the grip (the loose hinge: 0.1 N m)
 DOWN = matrix_to_quaternion(z_to([0.0, 0.0, -1.0]))  # finger axis pointing down
 
-#: Held-out conditions: a change of the world, the protocol unchanged. With another grip
-#: length the operator's nominal layout has that length (the grip is in plain sight).
-CONDITIONS = {
-    "nominal": {},
-    "noise_x2": {
-        "sensor": SensorConfig(
-            force_noise_std=2 * SensorConfig().force_noise_std,
-            moment_noise_std=2 * SensorConfig().moment_noise_std,
-        )
-    },
-    "friction_0.3": {"skin": SkinConfig(friction=0.3)},
-    "friction_0.8": {"skin": SkinConfig(friction=0.8)},
-    "link_60mm": {"object": {"free_link_size": (0.06, 0.02, 0.008)}, "reach": 0.050},
-    "link_150mm": {"object": {"free_link_size": (0.15, 0.02, 0.008)}, "reach": 0.140},
-}
+#: Held-out conditions: a change of the world, the protocol unchanged; the shipped env presets
+#: (``configs/env``: sensor noise x2, friction 0.3 and 0.8, links of 60 and 150 mm). With
+#: another grip the operator's nominal layout is that grip's (it is in plain sight).
+CONDITIONS = {"nominal": {}, **{name: load_preset("env", name) for name in preset_names("env")}}
+
+
+def condition_object(condition: str) -> ObjectConfig:
+    """The grip of a condition as documented (its nominal configuration), the hand holding
+    it. The joint angle of each trial, the truth, is drawn apart and never told."""
+    if condition not in CONDITIONS:
+        raise ValueError(f"condition must be one of {sorted(CONDITIONS)}, got {condition!r}")
+    change = CONDITIONS[condition].get("object", {})
+    return ObjectConfig.scissors(**{**change, "holding_torque": HAND_HOLD_TORQUE})
 
 
 @dataclass(frozen=True)
@@ -143,12 +142,25 @@ class NominalLayout:
             -1 its right edge.
     """
 
-    hinge: tuple[float, float] = (0.017, 0.105)
-    heading: float = 0.0
-    width: float = 0.020
-    thickness: float = 0.008
-    reach: float = 0.090
-    side: int = -1
+    hinge: tuple[float, float]
+    heading: float
+    width: float
+    thickness: float
+    reach: float
+    side: int
+
+    @classmethod
+    def of(cls, config: ObjectConfig) -> NominalLayout:
+        """The layout an operator reads off an object's documented configuration."""
+        x, y, _ = config.link_direction
+        return cls(
+            hinge=(config.joint_position[0], config.joint_position[1]),
+            heading=math.atan2(y, x),
+            width=config.free_link_size[1],
+            thickness=config.joint_position[2] + config.free_link_size[2] / 2,
+            reach=config.free_link_size[0] - config.pin_overlap,
+            side=config.edge_side,
+        )
 
     def first_search(self, along: float) -> tuple[np.ndarray, np.ndarray]:
         """Start point (2,) and outward direction (2,) of the first edge search, world x-y.
@@ -509,12 +521,11 @@ def run_trial(
 
 def make_scene(condition: str) -> ProbeScene:
     """The paper's scene under a condition of ``CONDITIONS``, the hand holding the grip."""
-    if condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {sorted(CONDITIONS)}, got {condition!r}")
     change = CONDITIONS[condition]
-    config = ObjectConfig.scissors(holding_torque=HAND_HOLD_TORQUE, **change.get("object", {}))
     return ProbeScene(
-        config, change.get("skin", SkinConfig()), change.get("sensor", SensorConfig())
+        condition_object(condition),
+        SkinConfig(**change.get("skin", {})),
+        SensorConfig(**change.get("sensor", {})),
     )
 
 
@@ -523,7 +534,7 @@ def reproduce(
     seeds: tuple[int, ...] = (0,),
     conditions: tuple[str, ...] = ("nominal",),
     schemes: tuple[str, ...] = tuple(SCHEMES),
-    nominal: NominalLayout = NominalLayout(),  # noqa: B008 - frozen dataclass
+    nominal: NominalLayout | None = None,
 ) -> dict:
     """Run every cell: ``trials`` trials per seed, each condition, scheme and contact case.
 
@@ -538,7 +549,9 @@ def reproduce(
     results = {}
     for condition in conditions:
         scene = make_scene(condition)
-        layout = replace(nominal, reach=CONDITIONS[condition].get("reach", nominal.reach))
+        layout = NominalLayout.of(condition_object(condition))
+        if nominal is not None and condition == "nominal":
+            layout = nominal
         try:
             for scheme in schemes:
                 n, step = SCHEMES[scheme]
@@ -628,8 +641,7 @@ def plot(results: dict, truth: np.ndarray, out: Path) -> list[Path]:
 
 def true_joint_position(condition: str = "nominal") -> np.ndarray:
     """The true (p, q) of a condition's scene, world x-y, m (for the plots)."""
-    change = CONDITIONS[condition].get("object", {})
-    return np.asarray(ObjectConfig.scissors(**change).joint_position[:2])
+    return np.asarray(condition_object(condition).joint_position[:2])
 
 
 def main(argv: list[str] | None = None) -> dict:

@@ -5,12 +5,15 @@ Ground truth (the edge line, the true wrench) is read here only to check the pro
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from agents import reproduce_paper as rp
 from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
+
+NOMINAL = rp.NominalLayout.of(rp.condition_object("nominal"))
 
 
 @pytest.fixture(scope="module")
@@ -52,9 +55,7 @@ def test_edge_search_finds_the_edge_by_touch(scene, offset):
     # The search is told a direction across the edge 10 degrees off.
     c, s = math.cos(0.17), math.sin(0.17)
     told = np.array([c * outward[0] - s * outward[1], s * outward[0] + c * outward[1]])
-    touch, _, presses = rp.find_edge(
-        scene, start, told, rp.NominalLayout(), np.random.default_rng(0)
-    )
+    touch, _, presses = rp.find_edge(scene, start, told, NOMINAL, np.random.default_rng(0))
     past = (touch.centre - point) @ outward  # sphere centre past the edge line
     assert -0.001 < past < 0.002
     assert abs((touch.point - point) @ outward) < 0.002
@@ -78,7 +79,7 @@ def test_press_stops_on_the_noisy_reading():
 
         biased.control_step = recording_step
         xy = np.array([0.06, 0.105])  # the middle of the grip's top face
-        touch = rp.press(biased, xy, rp.NominalLayout(), np.random.default_rng(0))
+        touch = rp.press(biased, xy, NOMINAL, np.random.default_rng(0))
         assert touch.touched
         assert 5.0 <= np.linalg.norm(touch.wrench[:3]) < 5.3
         assert 3.4 < np.linalg.norm(biased.true_wrench[:3]) < 3.8
@@ -90,7 +91,7 @@ def test_press_stops_on_the_noisy_reading():
 def test_proposed_method_does_not_need_the_true_layout():
     # The operator's nominal layout off by 3 mm and 6 degrees: the search still finds the
     # edge by touch, and the estimate stays accurate.
-    guess = rp.NominalLayout(hinge=(0.020, 0.102), heading=math.radians(6.0))
+    guess = replace(NOMINAL, hinge=(0.020, 0.102), heading=math.radians(6.0))
     results = rp.reproduce(trials=2, schemes=("paper",), nominal=guess)
     for case in rp.CASES:
         assert max(results[("paper", case)]["proposed_mm"]) < 6.0
