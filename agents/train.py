@@ -452,7 +452,7 @@ def main(argv: list[str] | None = None) -> Path:
         n_cpus=args.n_cpus,
         n_threads=args.torch_threads,
         device=args.device,
-        command=shlex.join(["python", "-m", "agents.train", *(argv or sys.argv[1:])]),
+        command=shlex.join(["python", "-m", __spec__.name, *(argv or sys.argv[1:])]),
     )
     print(f"run saved in {run_dir}")
     return run_dir

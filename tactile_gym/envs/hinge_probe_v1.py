@@ -313,7 +313,7 @@ class HingeProbeEnv(gym.Env):
 
         from tactile_gym.presets import load_preset
 
-        gym.make("tactile_gym/HingeProbe-v1", **load_preset("env", "noisy_sensor"))
+        gym.make("tactile_gym/HingeProbe-v1", **load_preset("env", "noise_x2"))
 
     ## Version History
 

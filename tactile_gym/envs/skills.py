@@ -172,8 +172,8 @@ class Press(Skill):
         self,
         max_translation: float,
         frame: ProbeFrame,
-        force: float = 5.0,
-        dwell: int = 5,
+        force: float,
+        dwell: int,
         reach: float = 0.012,
         tolerance: float = 0.3,
     ) -> None:
