@@ -54,8 +54,8 @@ ZOO_ONLY_KEYS = (
 )
 #: Torch threads of the learner unless told otherwise. The networks are small (two layers of
 #: 128-256 units, batches of 128-256): on 2 cores shared with other jobs PPO trained 2.9-3.8x
-#: faster on one thread than on two (benchmarks/bench_train.py); extra threads mostly wait on
-#: each other and on the envs.
+#: faster on one thread than on two, and 1.06x on 2 quiet cores (benchmarks/bench_train.py);
+#: extra threads mostly wait on each other and on the envs.
 DEFAULT_TORCH_THREADS = 1
 #: Hyperparameters that take rl_zoo3's ``"lin_<value>"`` linear schedules.
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
@@ -82,7 +82,8 @@ def choose_vec_env(n_envs: int, n_cpus: int) -> str:
     """``"subproc"`` when each env worker gets a core of its own beside the learner.
 
     On 2 cores shared with other jobs, PPO with 2 envs in this process ran 1.16x and 1.44x
-    as fast as with 2 subprocesses (0.90x in a third run; ``benchmarks/bench_train.py``): the
+    as fast as with 2 subprocesses (0.90x in a third run, 1.05x on quiet cores;
+    ``benchmarks/bench_train.py``): the
     workers and the learner only take turns on the same cores, and every step pays for
     pickling observations between processes.
 

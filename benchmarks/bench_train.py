@@ -58,7 +58,11 @@ def _factory(env_id: str, env_kwargs: dict, dummy: bool):
         env = train_mod.make_env(env_id, **env_kwargs)
         if not dummy:
             return env
-        spaces_env = SpacesEnv(env.observation_space, env.action_space, env.spec.max_episode_steps)
+        # The env truncates episodes itself (no TimeLimit): a 6-D id after max_steps control
+        # steps, a primitive id after max_primitives primitives at most.
+        u = env.unwrapped
+        episode_steps = getattr(u, "max_primitives", None) or u.config.max_steps
+        spaces_env = SpacesEnv(env.observation_space, env.action_space, episode_steps)
         env.close()
         return spaces_env
 
