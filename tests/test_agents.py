@@ -15,7 +15,7 @@ from agents import evaluate, train
 from tactile_gym.presets import preset_path
 
 TINY = {
-    "ppo": {"n_steps": 16, "batch_size": 32, "n_epochs": 1},
+    "ppo": {"n_steps": 16, "batch_size": 16, "n_epochs": 1},
     "sac": {"buffer_size": 1000, "learning_starts": 16, "batch_size": 16},
 }
 

@@ -8,7 +8,7 @@ measurement: ``tactile_gym/envs/touch.py``, ``tactile_gym/envs/gate.py``). Requi
 "HingeProbe-v1"): P95 edge error <= 5 deg and P95 distance from the edge line <= 3 mm.
 
 The full attack (60 episodes per id) is ``slow``; the default run keeps a short one.
-``python -m pytest -m slow tests/test_gate_adversarial.py -s`` prints the P95 figures.
+``python -m pytest -m slow tests/test_gate_adversarial.py -n 0 -s`` prints the P95 figures.
 """
 
 from __future__ import annotations
