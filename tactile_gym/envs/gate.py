@@ -324,9 +324,7 @@ class MeasurementGate:
         """Whether a measurement may enter the fit: its contact is clear of the hinge, and its
         edge line lies at the expected distance (``edge_distance``: mean, std, m; unchecked
         when None) from the estimated axis (module docstring)."""
-        u = estimate.direction
-        w = m.point - estimate.point
-        radius = float(np.linalg.norm(w - (w @ u) * u))
+        radius = estimate.distance_to(m.point)
         if radius < self.config.min_hinge_distance + estimate.position_std:
             self.last_rejection = (
                 f"too near the hinge ({radius * 1e3:.1f} mm from the estimated axis): the links"
@@ -336,6 +334,8 @@ class MeasurementGate:
         if self.edge_distance is None:
             return True
         mean, std = self.edge_distance
+        u = estimate.direction
+        w = m.point - estimate.point
         distance = line_distance(m.point, m.edge, estimate.point, u)
         along = float(m.edge @ u)
         # Along the edge from the contact point to the foot of the common perpendicular.
