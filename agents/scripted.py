@@ -31,8 +31,8 @@ import argparse
 from dataclasses import dataclass
 
 import numpy as np
-from gymnasium import spaces
 
+from tactile_gym.envs.observation import ContactObs, LastMeasurementObs, ObservationCodec
 from tactile_gym.envs.skills import PrimitiveExecutor, PrimitiveScales, TouchReading
 
 __all__ = ["PrimitiveProber", "ProberConfig", "SkillProber", "executor_for", "scripted_policy"]
@@ -93,7 +93,7 @@ class PrimitiveProber:
         self._count = reading.measurements
         if self._last == "probe":
             if measured:
-                self._learn_turn(np.asarray(obs["last_measurement"][3:6], dtype=float))
+                self._learn_turn(LastMeasurementObs.read(obs).edge)
                 self._failures = 0
                 return self._turn()
             self._failures += 1
@@ -110,7 +110,7 @@ class PrimitiveProber:
         if not reading.touching:
             # Pressed into nothing (beyond the edge, or beside the link): come back inward.
             return -0.002
-        tilt = float(obs["contact"][11])
+        tilt = ContactObs.read(obs).tilt
         if tilt < cfg.min_tilt:
             return float(np.clip((cfg.target_tilt - tilt) / cfg.tilt_per_metre, 0.0, 0.003))
         return 0.0
@@ -173,37 +173,34 @@ class SkillProber:
 
 class _Policy:
     """A prober with the ``get_action``/``reset`` interface of the other policies, taking dict
-    or flat observations (``observation_mode="flat"`` is unflattened with the env's space)."""
+    or flat observations (``observation_mode="flat"`` is read with the env's codec)."""
 
-    def __init__(self, prober, space: spaces.Dict, primitive: bool) -> None:
+    def __init__(self, prober, codec: ObservationCodec, primitive: bool) -> None:
         self.prober = prober
-        self.space = space
+        self.codec = codec
         self.primitive = primitive
 
     def reset(self) -> None:
         self.prober.reset()
 
     def get_action(self, obs) -> np.ndarray:
-        if not isinstance(obs, dict):
-            obs = spaces.unflatten(self.space, obs)
+        obs = self.codec.as_dict(obs)
         action = self.prober.act(obs) if self.primitive else self.prober.get_action(obs)
         return action.astype(np.float32)
 
 
 def scripted_policy(env):
     """The scripted baseline of a v1 env (any id, either action mode); pass ``gym.make(...)``."""
-    base = env.unwrapped
+    codec = env.get_wrapper_attr("codec")
     if env.action_space.shape == (3,):
-        return _Policy(PrimitiveProber(base.scales), base.dict_observation_space, True)
-    return _Policy(SkillProber(executor_for(base)), base.dict_observation_space, False)
+        return _Policy(PrimitiveProber(env.get_wrapper_attr("scales")), codec, True)
+    return _Policy(SkillProber(executor_for(env.unwrapped)), codec, False)
 
 
 def executor_for(env) -> PrimitiveExecutor:
     """A primitive executor for a 6-D ``HingeProbeEnv`` (pass ``env.unwrapped``), with the
-    primitive ids' default scales."""
-    return PrimitiveExecutor(
-        env.config.max_translation, env.gate.config.dwell + 1, env.config.max_steps
-    )
+    primitive ids' default scales (``PrimitiveExecutor.for_env``)."""
+    return PrimitiveExecutor.for_env(env)
 
 
 def main(argv: list[str] | None = None) -> None:

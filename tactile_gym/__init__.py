@@ -46,12 +46,12 @@ register(
 )
 register(
     id="tactile_gym/HingeProbePrimitive-v1",
-    entry_point="tactile_gym.envs.hinge_probe_primitive_v1:HingeProbePrimitiveEnv",
+    entry_point="tactile_gym.envs.hinge_probe_primitive_v1:make_primitive_env",
     kwargs=_PLANAR,
 )
 register(
     id="tactile_gym/HingeProbe3DPrimitive-v1",
-    entry_point="tactile_gym.envs.hinge_probe_primitive_v1:HingeProbePrimitiveEnv",
+    entry_point="tactile_gym.envs.hinge_probe_primitive_v1:make_primitive_env",
     kwargs=_3D,
 )
 

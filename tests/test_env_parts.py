@@ -1,4 +1,5 @@
-"""Parts of the env on their own: controller, reset scenarios, prior, skills, plotting."""
+"""Parts of the env on their own: controller, observation codec, measurement pipeline, step
+guard, reset scenarios, prior, plotting."""
 
 from __future__ import annotations
 
@@ -8,8 +9,16 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import tactile_gym  # noqa: F401 - registers the envs
+from agents.scripted import scripted_policy
 from tactile_gym.envs.controller import DeltaPoseController
+from tactile_gym.envs.observation import (
+    OBSERVATION,
+    ContactObs,
+    LastMeasurementObs,
+    ProgressObs,
+)
 from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, probed_edge, sample_scenario
+from tactile_gym.envs.step_guard import StepGuard
 from tactile_gym.estimation import AxisPrior
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.spatial import quaternion_to_matrix
@@ -21,17 +30,90 @@ def test_controller_scales_translation_and_rotates_about_the_tip():
     pivot = FingertipGeometry().sphere_center
     ctrl = DeltaPoseController(0.002, np.deg2rad(3.0), pivot)
     position = np.array([0.01, 0.02, 0.05])
-    orientation = Rotation.from_euler("x", 170, degrees=True).as_quat()
-    new_position, new_orientation = ctrl.target(np.r_[1.0, 0, 0, 0, 0, 0], position, orientation)
+    rotation = Rotation.from_euler("x", 170, degrees=True).as_matrix()
+    new_position, new_rotation = ctrl.target(np.r_[1.0, 0, 0, 0, 0, 0], position, rotation)
     np.testing.assert_allclose(new_position - position, [0.002, 0, 0], atol=1e-12)
-    assert abs(new_orientation @ orientation) == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(new_rotation, rotation, atol=1e-12)
 
-    new_position, new_orientation = ctrl.target(np.r_[0, 0, 0, 0, 1.0, 0], position, orientation)
-    tip_before = position + Rotation.from_quat(orientation).apply(pivot)
-    tip_after = new_position + Rotation.from_quat(new_orientation).apply(pivot)
-    np.testing.assert_allclose(tip_after, tip_before, atol=1e-12)
-    turn = Rotation.from_quat(new_orientation) * Rotation.from_quat(orientation).inv()
+    new_position, new_rotation = ctrl.target(np.r_[0, 0, 0, 0, 1.0, 0], position, rotation)
+    np.testing.assert_allclose(new_position + new_rotation @ pivot, position + rotation @ pivot)
+    turn = Rotation.from_matrix(new_rotation @ rotation.T)
     np.testing.assert_allclose(turn.as_rotvec(), [0, np.deg2rad(3.0), 0], atol=1e-12)
+
+
+# --------------------------------------------------------------------------- observation
+
+
+def test_codec_names_every_entry_of_the_observation():
+    """Encoding named groups and reading them back gives the values, at their places."""
+    env = gym.make("tactile_gym/HingeProbe-v1")
+    obs, _ = env.reset(seed=4)
+    codec = env.unwrapped.codec
+    assert codec.dict_space == env.observation_space
+    contact = ContactObs.read(obs)
+    assert contact.point.shape == (3,) and isinstance(contact.tilt, float)
+    again = ContactObs.from_array(contact.to_array()).to_array()
+    np.testing.assert_array_equal(again, obs["contact"])
+    progress = ProgressObs.read(obs)
+    assert (progress.measurements, progress.time_left) == (0.0, 1.0)
+    flat = codec.encode({key: np.asarray(value, float) for key, value in obs.items()}, "flat")
+    np.testing.assert_array_equal(flat, gym.spaces.flatten(codec.dict_space, obs))
+    for key, view in codec.as_dict(flat).items():
+        np.testing.assert_array_equal(view, obs[key])
+    env.close()
+
+
+def test_codec_clips_to_the_bounds_and_zeroes_nan():
+    parts = {key: g.space().high.astype(float) * 2.0 for key, g in OBSERVATION.groups.items()}
+    parts["contact"][1:4] = np.nan
+    obs = OBSERVATION.encode(parts, "dict")
+    assert obs["wrench"][0] == np.float32(60.0)  # the force bound, N
+    np.testing.assert_array_equal(ContactObs.read(obs).point, 0.0)
+    with pytest.raises(ValueError, match="observation_mode"):
+        OBSERVATION.space("list")
+
+
+# --------------------------------------------------------------------------- measurement
+
+
+def test_pipeline_turns_a_held_press_into_one_measurement():
+    """The pipeline's state after the scripted policy's first measurement, and its rule of
+    one measurement per touch on more readings of the held press."""
+    env = gym.make("tactile_gym/HingeProbe-v1")
+    u = env.unwrapped
+    policy = scripted_policy(env)
+    obs, info = env.reset(seed=1000)
+    while not info.get("new_measurements"):
+        obs, _, _, _, info = env.step(policy.get_action(obs))
+    pipeline = u.pipeline
+    assert len(pipeline.measurements) == 1 and pipeline.last is pipeline.measurements[0]
+    assert pipeline.estimate.method != "prior"
+    assert pipeline.directions == 1 and pipeline.span == 0.0
+    np.testing.assert_array_equal(LastMeasurementObs.read(obs).edge, np.float32(pipeline.last.edge))
+    scene = u.scene
+    for _ in range(10):
+        added = pipeline.step(scene.read_wrench(u.np_random), scene.fingertip_rotation,
+                              scene.fingertip_position)  # fmt: skip
+        assert added == 0
+    env.close()
+
+
+# --------------------------------------------------------------------------- step guard
+
+
+def test_step_guard():
+    guard = StepGuard(gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32))
+    with pytest.raises(RuntimeError, match="reset"):
+        guard.check(np.zeros(2))
+    guard.begin()
+    np.testing.assert_array_equal(guard.check(np.array([3.0, -0.5])), [1.0, -0.5])
+    with pytest.raises(ValueError, match=r"shape \(2,\)"):
+        guard.check(np.zeros(3))
+    with pytest.raises(ValueError, match="finite"):
+        guard.check(np.array([np.nan, 0.0]))
+    guard.end(True)
+    with pytest.raises(RuntimeError, match="ended"):
+        guard.check(np.zeros(2))
 
 
 # --------------------------------------------------------------------------- scenarios
@@ -137,7 +219,6 @@ def test_env_starts_from_its_prior():
 def test_plot_top_view(tmp_path):
     matplotlib = pytest.importorskip("matplotlib")
     matplotlib.use("Agg")
-    from agents.scripted import scripted_policy
     from tactile_gym.envs.plotting import plot_top_view
 
     env = gym.make("tactile_gym/HingeProbe-v1", max_steps=120)

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import pickle
+import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.envs.registration import load_env_creator
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import tactile_gym
 from tactile_gym import ENV_IDS
-from tactile_gym.envs.hinge_probe_v1 import OBSERVATION_LAYOUT
+from tactile_gym.envs.hinge_probe_primitive_v1 import HingeProbePrimitiveEnv
+from tactile_gym.envs.observation import OBSERVATION_LAYOUT
 
 N_STEPS = 15
 
@@ -43,9 +46,36 @@ def test_gymnasium_check_env(env_id, monkeypatch):
     # passes headless; with one it would open the GUI, which CI never has.
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
-    env = gym.make(env_id).unwrapped
+    # The env as its entry point makes it, without gym.make's checking wrappers; for the
+    # primitive ids that is their wrapper over the 6-D env.
+    spec = gym.spec(env_id)
+    env = load_env_creator(spec.entry_point)(**spec.kwargs)
+    env.unwrapped.spec = spec  # what gym.make sets; the check re-makes the env from it
     assert "human" not in env.metadata["render_modes"]
-    gym_check_env(env)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ".*is different from the unwrapped")
+        gym_check_env(env)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", [i for i in ENV_IDS if "Primitive" in i])
+def test_primitive_ids_wrap_the_6d_env(env_id):
+    env = gym.make(env_id, max_primitives=3, probe_along=0.005)
+    wrapper = env.env.env  # under gym.make's OrderEnforcing and PassiveEnvChecker
+    assert isinstance(wrapper, HingeProbePrimitiveEnv) and isinstance(wrapper, gym.Wrapper)
+    assert wrapper.max_primitives == 3 and wrapper.scales.probe_along == 0.005
+    assert env.unwrapped is wrapper.env
+    assert env.unwrapped.action_space.shape == (6,)
+    assert env.get_wrapper_attr("dict_observation_space") is wrapper.dict_observation_space
+    obs, _ = env.reset(seed=0)
+    for _ in range(3):
+        obs, _, terminated, truncated, info = env.step(np.array([-1.0, 0.0, 0.0], np.float32))
+    assert truncated and not terminated  # after max_primitives
+    assert info["steps"] >= 1
+    # The README's accessor: the 6-D env's measurements, with their points and edges.
+    for m in env.unwrapped.measurements:
+        assert m.point.shape == (3,) and m.edge.shape == (3,)
+    assert info["n_measurements"] == len(env.unwrapped.measurements)
     env.close()
 
 
@@ -112,7 +142,7 @@ def test_flat_observation_variant(env_id):
     extra = 3 if "primitive" in dict_obs else 0  # the primitive ids' last-primitive summary
     assert obs.shape == (sum(n for _, n in OBSERVATION_LAYOUT) + extra,)
     assert env.observation_space.contains(obs)
-    space = env.unwrapped.dict_observation_space
+    space = env.get_wrapper_attr("dict_observation_space")
     np.testing.assert_array_equal(obs, gym.spaces.flatten(space, dict_obs))
     if not extra:
         layout = np.concatenate([dict_obs[k] for k, _ in OBSERVATION_LAYOUT])

@@ -3,14 +3,15 @@
 An action ``a`` in [-1, 1]^6 asks for a translation ``a[:3] * max_translation`` along the
 world axes and a rotation ``a[3:] * max_rotation`` given as a rotation vector in the world
 frame. The rotation turns the fingertip about the centre of its hemisphere, so a pure rotation
-rocks the tip in place rather than swinging it round the sensor.
+rocks the tip in place rather than swinging it round the sensor. Orientations are rotation
+matrices, sensor to world (``tactile_gym.spatial``'s conventions; ``docs/design.md`` 2, 7.6).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from tactile_gym.spatial import matrix_to_quaternion, quaternion_to_matrix, rotvec_to_matrix
+from tactile_gym.spatial import rotvec_to_matrix
 
 __all__ = ["DeltaPoseController"]
 
@@ -30,12 +31,17 @@ class DeltaPoseController:
         self.pivot = np.asarray(pivot, dtype=float)
 
     def target(
-        self, action: np.ndarray, position: np.ndarray, orientation: np.ndarray
+        self, action: np.ndarray, position: np.ndarray, rotation: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Pose target after applying ``action`` to the pose (position, xyzw quaternion)."""
+        """Pose target (position, m; (3, 3) rotation) after applying ``action`` to the pose.
+
+        Args:
+            action: (6,) normalised action.
+            position: (3,) sensor origin, world frame, m.
+            rotation: (3, 3) fingertip rotation, sensor to world.
+        """
         translation = np.asarray(action[:3], dtype=float) * self.max_translation
         turn = rotvec_to_matrix(np.asarray(action[3:6], dtype=float) * self.max_rotation)
-        rotation = quaternion_to_matrix(orientation)
         pivot_world = position + rotation @ self.pivot
         new_position = pivot_world + turn @ (position - pivot_world) + translation
-        return new_position, matrix_to_quaternion(turn @ rotation)
+        return new_position, turn @ rotation

@@ -1,4 +1,10 @@
-"""HingeProbePrimitive v1: the same task and physics, acted on with probing primitives."""
+"""HingeProbePrimitive v1: the same task and physics, acted on with probing primitives.
+
+``HingeProbePrimitiveEnv`` is a ``gym.Wrapper`` over ``HingeProbeEnv``: each primitive runs
+the probing skills (``skills.py``) on the 6-D env until done (``docs/design.md`` 7.6). The
+registered ids are made by ``make_primitive_env``, which splits the wrapper's keywords from
+the 6-D env's.
+"""
 
 from __future__ import annotations
 
@@ -9,21 +15,35 @@ import numpy as np
 from gymnasium import spaces
 
 from tactile_gym.envs.hinge_probe_v1 import HingeProbeEnv
+from tactile_gym.envs.observation import PrimitiveObs
 from tactile_gym.envs.skills import PRIMITIVES, PrimitiveExecutor, PrimitiveScales
-from tactile_gym.validation import check_choice, check_int, check_number
+from tactile_gym.envs.step_guard import StepGuard
+from tactile_gym.envs.task import REWARD_TERMS
+from tactile_gym.validation import check_int, check_number
 
-__all__ = ["HingeProbePrimitiveEnv", "PRIMITIVES"]
+__all__ = ["PRIMITIVES", "PRIMITIVE_KEYWORDS", "HingeProbePrimitiveEnv", "make_primitive_env"]
+
+#: The wrapper's own keywords of ``gym.make``; the others go to ``HingeProbeEnv``.
+PRIMITIVE_KEYWORDS = ("max_primitives", "probe_across", "probe_along", "turn_distance")
 
 
-class HingeProbePrimitiveEnv(gym.Env):
+def make_primitive_env(render_mode: str | None = None, **kwargs: Any) -> HingeProbePrimitiveEnv:
+    """The entry point of the primitive ids: ``HingeProbeEnv`` of the 6-D keywords, wrapped
+    with the primitive keywords (``PRIMITIVE_KEYWORDS``)."""
+    own = {key: kwargs.pop(key) for key in PRIMITIVE_KEYWORDS if key in kwargs}
+    return HingeProbePrimitiveEnv(HingeProbeEnv(render_mode=render_mode, **kwargs), **own)
+
+
+class HingeProbePrimitiveEnv(gym.Wrapper):
     """``HingeProbe`` with probing primitives as actions; each runs the 6-D env underneath.
 
     ## Description
 
     The task, the physics, the measurement gate, the estimator, the observation and the reward
-    are those of ``HingeProbeEnv`` (``tactile_gym/envs/hinge_probe_v1.py``), which runs
-    underneath: a primitive is a short closed-loop motion (``tactile_gym.envs.skills``) that
-    sends 6-D actions to it until done. The primitives read observations only.
+    are those of the wrapped ``HingeProbeEnv`` (``tactile_gym/envs/hinge_probe_v1.py``;
+    ``env.unwrapped`` is it, with its ``measurements``): a primitive is a short closed-loop
+    motion (``tactile_gym.envs.skills``) that sends 6-D actions to it until done. The
+    primitives read observations only.
 
     ## Action Space
 
@@ -47,9 +67,11 @@ class HingeProbePrimitiveEnv(gym.Env):
 
     ## Observation Space, Rewards
 
-    ``HingeProbeEnv``'s observation after the primitive, plus ``primitive``: the kind of the
-    last primitive (-1 probe, +1 turn, 0 none yet), whether it produced a measurement (0 or 1)
-    and the fraction of the episode's control steps it took. The reward is the sum of the 6-D
+    ``HingeProbeEnv``'s observation after the primitive, plus ``primitive``
+    (``tactile_gym.envs.observation.PrimitiveObs``): the kind of the last primitive (-1 probe,
+    +1 turn, 0 none yet), whether it produced a measurement (0 or 1) and the fraction of the
+    episode's control steps it took. ``observation_mode="flat"`` flattens it like the 6-D
+    env's (the keys in sorted order). The reward is the sum of the 6-D
     env's rewards during the primitive (so the return still telescopes to the error removed
     from the prior). ``info`` adds ``primitive`` and ``steps`` (6-D steps the primitive took).
 
@@ -60,131 +82,76 @@ class HingeProbePrimitiveEnv(gym.Env):
 
     ## Arguments
 
-    ``max_primitives``, ``probe_across``, ``probe_along``, ``turn_distance``, and every keyword
-    of ``HingeProbeEnv`` (passed through).
+    ``env``, the ``HingeProbeEnv`` to wrap, then ``max_primitives``, ``probe_across``,
+    ``probe_along`` and ``turn_distance``. Through ``gym.make`` every keyword of
+    ``HingeProbeEnv`` is accepted too (``make_primitive_env``).
 
     ## Version History
 
     * v1: initial release.
     """
 
-    metadata = HingeProbeEnv.metadata
-
     def __init__(
         self,
-        render_mode: str | None = None,
+        env: gym.Env,
         max_primitives: int = 64,
         probe_across: float = PrimitiveScales.probe_across,
         probe_along: float = PrimitiveScales.probe_along,
         turn_distance: float = PrimitiveScales.turn_distance,
-        **kwargs: Any,
     ) -> None:
+        super().__init__(env)
         self.max_primitives = check_int("max_primitives", max_primitives, 1, 10_000)
         self.scales = PrimitiveScales(
             probe_across=check_number("probe_across", probe_across, 0.0, 0.01, low_open=True),
             probe_along=check_number("probe_along", probe_along, 0.0, 0.05),
             turn_distance=check_number("turn_distance", turn_distance, 0.0, 0.1, low_open=True),
         )
-        # The skills read dict observations: the env underneath always makes them, and this
-        # env flattens its own when asked to.
-        self.observation_mode = check_choice(
-            "observation_mode", kwargs.get("observation_mode", "dict"), ("dict", "flat")
-        )
-        self.env = HingeProbeEnv(render_mode=render_mode, **{**kwargs, "observation_mode": "dict"})
-        self.render_mode = render_mode
-        self.metadata = self.env.metadata
-        self.dict_observation_space = spaces.Dict(
-            {
-                **self.env.dict_observation_space.spaces,
-                "primitive": spaces.Box(
-                    np.array([-1.0, 0.0, 0.0], np.float32), np.ones(3, np.float32)
-                ),
-            }
-        )
-        if self.observation_mode == "flat":
-            self.observation_space = spaces.flatten_space(self.dict_observation_space)
-        else:
-            self.observation_space = self.dict_observation_space
+        base = env.unwrapped
+        self._mode = base.config.observation_mode
+        self._inner_codec = base.codec
+        self.codec = base.codec.with_group(PrimitiveObs)
+        self.dict_observation_space = self.codec.dict_space
+        self.observation_space = self.codec.space(self._mode)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
-        self._executor = PrimitiveExecutor(
-            self.env.config.max_translation,
-            self.env.gate.config.dwell + 1,
-            self.env.config.max_steps,
-            self.scales,
-        )
-        self._obs = None
-
-    @property
-    def config(self):
-        return self.env.config
+        self._guard = StepGuard(self.action_space)
+        self._executor = PrimitiveExecutor.for_env(base, self.scales)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super().reset(seed=seed)
         obs, info = self.env.reset(seed=seed, options=options)
-        self._obs = obs
+        self._obs = self._inner_codec.as_dict(obs)
         self._executor.reset()
         self._primitives = 0
-        self._over = False
-        return self._observation(self._executor.summary), info
+        self._guard.begin()
+        return self._observation(), info
 
     def step(self, action):
-        if self._obs is None:
-            raise RuntimeError("call reset() before step()")
-        if self._over:
-            raise RuntimeError(
-                "the episode has ended (terminated or truncated); call reset() before step()"
-            )
-        action = np.asarray(action)
-        if action.shape != (3,):
-            raise ValueError(f"action must have shape (3,), got {action.shape}")
-        if not np.all(np.isfinite(action)):
-            raise ValueError(f"action must be finite, got {action.tolist()}")
+        action = self._guard.check(action)
         name = self._executor.start(action, self._obs)
-        total, terms, steps = 0.0, {}, 0
+        total, terms, steps = 0.0, dict.fromkeys(REWARD_TERMS, 0.0), 0
         terminated = truncated = False
         info: dict = {}
         while not (terminated or truncated):
             low = self._executor.act(self._obs)
             if low is None:
                 break
-            self._obs, reward, terminated, truncated, info = self.env.step(low.astype(np.float32))
+            obs, reward, terminated, truncated, info = self.env.step(low.astype(np.float32))
+            self._obs = self._inner_codec.as_dict(obs)
             steps += 1
             total += reward
-            for key in ("reward_error_reduction", "reward_force_penalty", "reward_action_cost"):
-                terms[key] = terms.get(key, 0.0) + info[key]
+            for key in REWARD_TERMS:
+                terms[key] += info[key]
         self._executor.finish(self._obs)  # also when the episode's end cut it short
         self._primitives += 1
         truncated = truncated or (self._primitives >= self.max_primitives and not terminated)
-        self._over = terminated or truncated
+        self._guard.end(terminated or truncated)
         info = {**info, **terms, "primitive": name, "steps": steps}
-        return self._observation(self._executor.summary), total, terminated, truncated, info
-
-    def _observation(self, primitive: np.ndarray):
-        """The 6-D env's observation plus what the last primitive was and did."""
-        obs = {**self._obs, "primitive": primitive.astype(np.float32)}
-        if self.observation_mode == "flat":
-            return spaces.flatten(self.dict_observation_space, obs)
-        return obs
-
-    def render(self):
-        return self.env.render()
+        return self._observation(), total, terminated, truncated, info
 
     def close(self):
-        self.env.close()
+        self._guard.stop()
+        super().close()
 
-    @property
-    def unwrapped_env(self) -> HingeProbeEnv:
-        """The 6-D env underneath (measurements, estimate, scene)."""
-        return self.env
-
-    @property
-    def measurements(self):
-        return self.env.measurements
-
-    @property
-    def scene(self):
-        return self.env.scene
-
-    @property
-    def axis_estimate(self):
-        return self.env.axis_estimate
+    def _observation(self):
+        """The 6-D env's observation plus what the last primitive was and did."""
+        parts = {**self._obs, PrimitiveObs.key: self._executor.summary}
+        return self.codec.encode(parts, self._mode)

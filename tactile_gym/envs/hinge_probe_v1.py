@@ -1,9 +1,15 @@
-"""HingeProbe v1: estimate the joint axis of a hinged object with a soft tactile fingertip."""
+"""HingeProbe v1: estimate the joint axis of a hinged object with a soft tactile fingertip.
+
+``HingeProbeEnv`` joins parts that know nothing of each other (``docs/design.md`` 7.1): the
+controller (``controller.py``), the simulation (``tactile_gym.sim.ProbeScene``), the
+measurement pipeline (``measurement.py``: touch sensing, gate and estimator), the task
+(``task.py``: reward and termination from the ground truth) and the observation codec
+(``observation.py``). Its class docstring documents the id.
+"""
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import os
 import sys
 from dataclasses import dataclass, field
@@ -14,20 +20,36 @@ import numpy as np
 from gymnasium import spaces
 
 from tactile_gym.envs.controller import DeltaPoseController
-from tactile_gym.envs.gate import GateConfig, Measurement, MeasurementGate, line_distance
-from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, probed_edge, sample_scenario
+from tactile_gym.envs.measurement import (
+    GateConfig,
+    Measurement,
+    MeasurementPipeline,
+    reset_distribution_prior,
+)
+from tactile_gym.envs.observation import (
+    NO_EDGE,
+    OBSERVATION,
+    ContactObs,
+    EstimateObs,
+    FingertipPoseObs,
+    LastMeasurementObs,
+    ProgressObs,
+    WrenchObs,
+)
+from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, sample_scenario
+from tactile_gym.envs.step_guard import StepGuard
 from tactile_gym.envs.task import (
     TERMINATION_REASONS,
     AxisEstimationTask,
     StepFacts,
     TaskConfig,
 )
-from tactile_gym.envs.touch import Touch, TouchSensor
-from tactile_gym.estimation import LOSSES, AxisEstimate, AxisPrior, JointAxisEstimator, axis_error
+from tactile_gym.estimation import LOSSES, AxisEstimate, axis_error
 from tactile_gym.sensing import FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
 from tactile_gym.sim.scene import FORCE_LIMIT
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
+from tactile_gym.spatial import matrix_to_quaternion
 from tactile_gym.validation import (
     build_config,
     check_bool,
@@ -36,29 +58,8 @@ from tactile_gym.validation import (
     check_number,
 )
 
-__all__ = ["HingeProbeConfig", "HingeProbeEnv", "OBSERVATION_LAYOUT"]
-
-#: Physical bounds of the observation entries (observations are clipped to them).
-FORCE_BOUND = 60.0  # N
-MOMENT_BOUND = 3.0  # N m
-POSITION_BOUND = 1.0  # m
-STD_BOUND = 1.0  # m
-MAX_MEASUREMENTS = 10_000.0
-
-#: Entries of the flat observation, in order (Gymnasium sorts Dict keys), with their sizes.
-OBSERVATION_LAYOUT: tuple[tuple[str, int], ...] = (
-    ("contact", 12),
-    ("estimate", 8),
-    ("fingertip_pose", 7),
-    ("last_measurement", 7),
-    ("progress", 5),
-    ("wrench", 6),
-)
-
-#: Edge directions closer than this count as one link angle in ``progress``, rad.
-DISTINCT_ANGLE = float(np.deg2rad(3.0))
-#: Scenario draws behind the prior (the reset distribution's), from a fixed seed.
-PRIOR_SAMPLES = 512
+# The termination reasons are documented with the task.
+__all__ = ["HingeProbeConfig", "HingeProbeEnv", "TERMINATION_REASONS"]
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,8 @@ class HingeProbeConfig:
         families: object families drawn at reset, from ``scissors, door, lid, tilted``.
         estimator: ``"planar"`` (axis along world z, paper eq. 16-21) or ``"3d"``.
         estimator_loss: robust loss of the estimator (``tactile_gym.estimation.LOSSES``).
-        observation_mode: ``"dict"`` or ``"flat"`` (one Box, see ``OBSERVATION_LAYOUT``).
+        observation_mode: ``"dict"`` or ``"flat"`` (one Box in the order of
+            ``tactile_gym.envs.observation.OBSERVATION_LAYOUT``).
         max_steps: control steps before the episode is truncated.
         time_step: physics time step, s.
         substeps: physics steps per control step (12 at 1/240 s gives 20 Hz control).
@@ -338,9 +340,8 @@ class HingeProbeEnv(gym.Env):
                 "render_mode='human' opens PyBullet's GUI, which needs a display, and no DISPLAY"
                 " or WAYLAND_DISPLAY is set. Use render_mode='rgb_array' for headless frames."
             )
-        self.config = HingeProbeConfig.from_kwargs(kwargs)
+        self.config = cfg = HingeProbeConfig.from_kwargs(kwargs)
         self.render_mode = render_mode
-        cfg = self.config
         modes = [m for m in self.metadata["render_modes"] if m != "human" or _display_available()]
         self.metadata = {
             **self.metadata,
@@ -351,51 +352,29 @@ class HingeProbeEnv(gym.Env):
         self._skin_config = cfg.skin_config()
         self._sensor_config = cfg.sensor_config()
         self.scenario_config = cfg.scenario_config()
-        self.task = AxisEstimationTask(cfg.task_config())
-        self.touch_sensor = TouchSensor(
-            self.geometry, self._sensor_config, self._skin_config.normal_stiffness
-        )
-        self.gate = MeasurementGate(cfg.gate_config(), self.touch_sensor)
         self.controller = DeltaPoseController(
             cfg.max_translation, cfg.max_rotation, self.geometry.sphere_center
         )
-        self.prior, self.gate.edge_distance = self._reset_distribution_prior()
-        # The estimator fuses the prior with the measurements (maximum a posteriori), so its
-        # estimate is the prior before any measurement and leaves it as evidence accrues.
-        self.estimator = JointAxisEstimator(
-            mode=cfg.estimator, loss=cfg.estimator_loss, prior=self.prior
+        prior, edge_distance = reset_distribution_prior(
+            cfg.families, self.scenario_config, self.geometry, cfg.randomize, cfg.object
         )
-        self._scene: ProbeScene | None = None
-        self.measurements: list[Measurement] = []
-        self._episode_over = True
-
+        self.pipeline = MeasurementPipeline(
+            self.geometry,
+            self._sensor_config,
+            self._skin_config.normal_stiffness,
+            cfg.gate_config(),
+            cfg.estimator,
+            cfg.estimator_loss,
+            prior,
+            edge_distance,
+        )
+        self.task = AxisEstimationTask(cfg.task_config())
+        self.codec = OBSERVATION
+        self.dict_observation_space = self.codec.dict_space
+        self.observation_space = self.codec.space(cfg.observation_mode)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(6,), dtype=np.float32)
-        pos = np.full(3, POSITION_BOUND)
-        unit = np.ones(3)
-        wrench_high = np.r_[np.full(3, FORCE_BOUND), np.full(3, MOMENT_BOUND)]
-        self._dict_space = spaces.Dict(
-            {
-                "wrench": _box(-wrench_high, wrench_high),
-                "fingertip_pose": _box(-np.r_[pos, np.ones(4)], np.r_[pos, np.ones(4)]),
-                "contact": _box(
-                    np.r_[0.0, -pos, -unit, -unit, 0.0, 0.0],
-                    np.r_[1.0, pos, unit, unit, np.pi / 2, np.pi / 2],
-                ),
-                "estimate": _box(np.r_[-pos, -unit, 0.0, 0.0], np.r_[pos, unit, STD_BOUND, np.pi]),
-                "last_measurement": _box(np.r_[-pos, -unit, 0.0], np.r_[pos, unit, np.pi / 2]),
-                "progress": _box(
-                    np.zeros(5), np.r_[np.pi, MAX_MEASUREMENTS, np.pi / 2, MAX_MEASUREMENTS, 1.0]
-                ),
-            }
-        )
-        flat_space = spaces.flatten_space(self._dict_space)
-        self._low, self._high = flat_space.low.astype(float), flat_space.high.astype(float)
-        sizes = dict(OBSERVATION_LAYOUT)
-        ends = np.cumsum([sizes[key] for key, _ in OBSERVATION_LAYOUT])
-        self._slices = {
-            key: (int(e - sizes[key]), int(e)) for (key, _), e in zip(OBSERVATION_LAYOUT, ends)
-        }
-        self.observation_space = flat_space if cfg.observation_mode == "flat" else self._dict_space
+        self._guard = StepGuard(self.action_space)
+        self._scene: ProbeScene | None = None
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -420,72 +399,46 @@ class HingeProbeEnv(gym.Env):
                 force_limit=cfg.force_limit,
                 gui=self.render_mode == "human",
             )
-        self._scene.reset(
+        scene = self._scene
+        scene.reset(
             scenario.joint_angle,
             scenario.fingertip_position,
             scenario.fingertip_orientation,
             object_config=scenario.object_config,
         )
-        self.gate.reset()
-        self.estimator.reset()
-        self.measurements = []
-        self._directions: list[np.ndarray] = []  # one representative per distinct direction
-        self._span = 0.0
-        self._estimate = self.estimator.estimate()
         self._steps = 0
-        self._episode_over = False
-        self._quaternion = self._scene.fingertip_orientation
-        self._wrench = self._scene.read_wrench(self.np_random)
-        self._touch = self._sense(self._wrench)
+        self._wrench = scene.read_wrench(self.np_random)
+        self.pipeline.reset(self._wrench, scene.fingertip_rotation, scene.fingertip_position)
+        self._guard.begin()
         position_error, angle_error = self._true_errors()
         self.task.initialize_episode(position_error, angle_error)
         return self._observation(), self._true_info(position_error, angle_error)
 
     def step(self, action):
-        if self._scene is None:
-            raise RuntimeError("call reset() before step()")
-        if self._episode_over:
-            raise RuntimeError(
-                "the episode has ended (terminated or truncated); call reset() before step()"
-            )
-        action = np.asarray(action)
-        if action.shape != self.action_space.shape:
-            raise ValueError(f"action must have shape (6,), got {action.shape}")
-        if not np.all(np.isfinite(action)):
-            raise ValueError(f"action must be finite, got {action.tolist()}")
-        action = np.clip(action.astype(float), -1.0, 1.0)
+        action = self._guard.check(action)
         scene = self._scene
-        # controller -> scene -> sense -> gate and estimator -> task -> observation.
-        target = self.controller.target(action, scene.fingertip_position, self._quaternion)
-        step_info = scene.control_step(*target)
-        self._quaternion = scene.fingertip_orientation
-        self._wrench = scene.read_wrench(self.np_random)
-        self._touch = self._sense(self._wrench)
-        accepted = self._measure()
-        position_error, angle_error = self._true_errors()
-        facts = StepFacts(
-            position_error=position_error,
-            angle_error=angle_error,
-            max_force=float(step_info.max_force),
-            force_limit=float(scene.force_limit),
-            shell_contact=bool(step_info.shell_contact),
-            hinge_distance=self._true_hinge_distance(),
-            action=action,
+        position, rotation = self.controller.target(
+            action, scene.fingertip_position, scene.fingertip_rotation
         )
+        # ProbeScene.control_step takes a quaternion until the sim takes the matrix itself.
+        step_info = scene.control_step(position, matrix_to_quaternion(rotation))
+        self._wrench = scene.read_wrench(self.np_random)
+        added = self.pipeline.step(self._wrench, scene.fingertip_rotation, scene.fingertip_position)
+        self._steps += 1
+        facts = self._true_facts(step_info, action)
         reward, reward_info = self.task.get_reward(facts)
         reasons = self.task.get_termination(facts)
         terminated = any(reasons.values())
-        self._steps += 1
         truncated = self._steps >= self.config.max_steps and not terminated
-        self._episode_over = terminated or truncated
-        info = self._true_info(position_error, angle_error)
-        info.update(reward_info)
-        info.update(
-            max_force=float(step_info.max_force),
-            force_limited=bool(step_info.force_limited),
-            termination=reasons,
-            new_measurements=len(accepted),
-        )
+        self._guard.end(terminated or truncated)
+        info = {
+            **self._true_info(facts.position_error, facts.angle_error),
+            **reward_info,
+            "max_force": facts.max_force,
+            "force_limited": bool(step_info.force_limited),
+            "termination": reasons,
+            "new_measurements": added,
+        }
         if self.render_mode == "human":
             self.render()
         return self._observation(), reward, terminated, truncated, info
@@ -496,6 +449,7 @@ class HingeProbeEnv(gym.Env):
         return self._scene.render()
 
     def close(self):
+        self._guard.stop()
         if self._scene is not None:
             self._scene.close()
             self._scene = None
@@ -509,102 +463,64 @@ class HingeProbeEnv(gym.Env):
         return self._scene
 
     @property
-    def dict_observation_space(self) -> spaces.Dict:
-        """The observation as a ``Dict`` (what ``observation_mode="flat"`` flattens)."""
-        return self._dict_space
+    def measurements(self) -> list[Measurement]:
+        """The measurements accepted this episode (``.point``, ``.edge``, ...; world frame)."""
+        return self.pipeline.measurements
 
     @property
     def axis_estimate(self) -> AxisEstimate:
         """The current estimate (the prior fused with the measurements so far)."""
-        return self._estimate
+        return self.pipeline.estimate
 
     @property
-    def steps_left(self) -> int:
-        """Control steps before the episode is truncated."""
-        return self.config.max_steps - self._steps
-
-    # ------------------------------------------------------------------ the measurement path
-    def _sense(self, wrench: np.ndarray) -> Touch:
-        scene = self._scene
-        return self.touch_sensor.sense(wrench, scene.fingertip_rotation, scene.fingertip_position)
-
-    def _measure(self) -> list[Measurement]:
-        """Offer this step's reading to the gate and feed what it accepts to the estimator."""
-        scene = self._scene
-        accepted = self.gate.offer(
-            self._wrench, scene.fingertip_rotation, scene.fingertip_position, self._touch
-        )
-        accepted = [m for m in accepted if self.gate.same_edge(m, self._estimate)]
-        for m in accepted:
-            self.estimator.add(m.point, m.edge, m.point_std, m.edge_std, edge_cov=m.edge_cov)
-            self._count_direction(m.edge)
-        self.measurements.extend(accepted)
-        if accepted:
-            self._estimate = self.estimator.estimate()
-        return accepted
+    def gate(self):
+        """The pipeline's measurement gate (its ``config`` and ``last_rejection``)."""
+        return self.pipeline.gate
 
     def _observation(self):
         """The observation of the current state (reads state only, changes nothing)."""
-        scene = self._scene
-        touch = self._touch
-        contact = np.zeros(12)
-        contact[10] = np.pi / 2
-        if touch.valid:
-            contact[0] = 1.0
-            contact[1:4] = touch.point
-            contact[4:7] = touch.normal
-            contact[11] = touch.tilt
-            if touch.observable:
-                contact[7:10] = touch.edge
-                contact[10] = touch.edge_std
-        est = self._estimate
-        stds = (est.position_std, est.angle_std)
-        last = (np.zeros(3), np.zeros(3), (np.pi / 2,))
-        if self.measurements:
-            m = self.measurements[-1]
-            last = (m.point, m.edge, (m.edge_std,))
-        parts = {
-            "contact": contact,
-            "estimate": np.concatenate((est.point, est.direction, stds)),
-            "fingertip_pose": np.concatenate((scene.fingertip_position, self._quaternion)),
-            "last_measurement": np.concatenate(last),
-            "progress": self._progress(),
-            "wrench": self._wrench,
-        }
-        # One pass over the flat vector (in OBSERVATION_LAYOUT order): clip to the bounds,
-        # NaN to 0 (an undefined entry whose flag says so).
-        flat = np.concatenate([parts[key] for key, _ in OBSERVATION_LAYOUT])
-        flat = np.clip(np.nan_to_num(flat, nan=0.0), self._low, self._high).astype(np.float32)
-        if self.config.observation_mode == "flat":
-            return flat
-        return {key: flat[a:b] for key, (a, b) in self._slices.items()}
-
-    def _count_direction(self, edge: np.ndarray) -> None:
-        """Update the span and the distinct directions of the measured edges with one more."""
-        if self._directions:
-            cos = np.array(self._directions) @ edge
-            self._span = max(self._span, float(np.arccos(np.clip(cos.min(), -1.0, 1.0))))
-            if cos.max() >= np.cos(DISTINCT_ANGLE):
-                return
-        self._directions.append(edge)
-
-    def _progress(self) -> np.ndarray:
-        """Span and count of measured edge directions, last quality, count, time left."""
-        last = self.measurements[-1].edge_std if self.measurements else np.pi / 2
-        left = 1.0 - self._steps / self.config.max_steps
-        return np.array([self._span, len(self._directions), last, len(self.measurements), left])
+        scene, pipeline = self._scene, self.pipeline
+        last = pipeline.last
+        groups = (
+            ContactObs.from_touch(pipeline.touch),
+            EstimateObs.from_estimate(pipeline.estimate),
+            FingertipPoseObs(
+                scene.fingertip_position, matrix_to_quaternion(scene.fingertip_rotation)
+            ),
+            LastMeasurementObs.from_measurement(last),
+            ProgressObs(
+                span=pipeline.span,
+                directions=pipeline.directions,
+                last_edge_std=NO_EDGE if last is None else last.edge_std,
+                measurements=len(pipeline.measurements),
+                time_left=1.0 - self._steps / self.config.max_steps,
+            ),
+            WrenchObs(self._wrench[:3], self._wrench[3:]),
+        )
+        parts = {group.key: group.to_array() for group in groups}
+        return self.codec.encode(parts, self.config.observation_mode)
 
     # ------------------------------------------------------------------ ground truth
     # Only these methods read the simulator's truth; it feeds the reward, termination and
-    # info, never the measurement path above (tests/test_ground_truth.py audits this).
+    # info, never the measurement pipeline (tests/test_ground_truth.py audits this).
     def _true_errors(self) -> tuple[float, float]:
         point, direction = self._scene.true_axis
-        position, angle = axis_error(self._estimate, point, direction, point)
+        position, angle = axis_error(self.pipeline.estimate, point, direction, point)
         return float(position), float(angle)
 
-    def _true_hinge_distance(self) -> float:
+    def _true_facts(self, step_info, action: np.ndarray) -> StepFacts:
+        """What the task judges a step by (``StepFacts``), from the truth and the step."""
+        position_error, angle_error = self._true_errors()
         pin, _ = self._scene.true_axis
-        return float(np.linalg.norm(self._scene.fingertip_position - pin))
+        return StepFacts(
+            position_error=position_error,
+            angle_error=angle_error,
+            max_force=float(step_info.max_force),
+            force_limit=float(self._scene.force_limit),
+            shell_contact=bool(step_info.shell_contact),
+            hinge_distance=float(np.linalg.norm(self._scene.fingertip_position - pin)),
+            action=action,
+        )
 
     def _true_info(self, position_error: float, angle_error: float) -> dict[str, Any]:
         point, direction = self._scene.true_axis
@@ -612,74 +528,8 @@ class HingeProbeEnv(gym.Env):
             "is_success": self.task.is_success(position_error, angle_error),
             "position_error": position_error,
             "angle_error": angle_error,
-            "n_measurements": len(self.measurements),
+            "n_measurements": len(self.pipeline.measurements),
             "true_axis_point": point.copy(),
             "true_axis_direction": direction.copy(),
             "joint_angle": float(self._scene.joint_angle),
         }
-
-    def _reset_distribution_prior(self) -> tuple[AxisPrior, tuple[float, float]]:
-        """The prior from the reset distribution (fixed seed; never this episode's truth)."""
-        cfg = self.config
-        return _reset_distribution_prior(
-            cfg.families,
-            _frozen(dataclasses.asdict(self.scenario_config)),
-            self.geometry,
-            cfg.randomize,
-            _frozen(cfg.object),
-        )
-
-
-@functools.lru_cache(maxsize=64)
-def _reset_distribution_prior(
-    families: tuple[str, ...],
-    scenario: tuple,
-    geometry: FingertipGeometry,
-    randomize: bool,
-    object_overrides: tuple,
-) -> tuple[AxisPrior, tuple[float, float]]:
-    """The prior of one reset distribution, drawn once per process: the axis, and the
-    distance of the probed edge from it (mean, std; ``MeasurementGate.same_edge``).
-
-    Its ``PRIOR_SAMPLES`` draws take about 0.4 s, most of a ``gym.make``, and every env made
-    with the same families, ranges and overrides draws the same scenarios from the same seed.
-    ``scenario`` and ``object_overrides`` are the ``_frozen`` ``ScenarioConfig`` fields and
-    ``object`` overrides. Envs share the result, so its arrays are read-only.
-    """
-    scenario_config = ScenarioConfig(**dict(scenario))
-    rng = np.random.default_rng(0)
-    pins, directions, distances = [], [], []
-    for _ in range(PRIOR_SAMPLES if randomize else 1):
-        drawn = sample_scenario(
-            rng, families, scenario_config, geometry, randomize, dict(object_overrides)
-        )
-        config = drawn.object_config
-        pins.append(config.joint_position)
-        directions.append(config.axis)
-        origin, edge, _, _ = probed_edge(config, 0.0)
-        distances.append(
-            line_distance(origin, edge, np.asarray(config.joint_position), config.axis)
-        )
-    prior = AxisPrior.from_samples(np.array(pins), np.array(directions))
-    for array in (prior.pin, prior.pin_cov, prior.direction):
-        array.flags.writeable = False
-    return prior, (float(np.mean(distances)), float(np.std(distances)))
-
-
-def _frozen(value: Any) -> Any:
-    """A hashable copy of a config value: dicts as sorted item pairs, sequences as tuples."""
-    if isinstance(value, dict):
-        return tuple(sorted((key, _frozen(item)) for key, item in value.items()))
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return tuple(_frozen(item) for item in value)
-    return value
-
-
-def _box(low: np.ndarray, high: np.ndarray) -> spaces.Box:
-    return spaces.Box(
-        low=np.asarray(low, dtype=np.float32), high=np.asarray(high, dtype=np.float32)
-    )
-
-
-# The termination reasons are documented with the task.
-__all__ += ["TERMINATION_REASONS"]

@@ -28,6 +28,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tactile_gym.envs.observation import (
+    ContactObs,
+    FingertipPoseObs,
+    PrimitiveObs,
+    ProgressObs,
+    WrenchObs,
+)
 from tactile_gym.spatial import quaternion_to_matrix
 
 __all__ = [
@@ -68,18 +75,19 @@ class TouchReading:
 
     @classmethod
     def from_obs(cls, obs: dict) -> TouchReading:
-        pose = np.asarray(obs["fingertip_pose"], dtype=float)
-        rotation = quaternion_to_matrix(pose[3:7])
-        contact = np.asarray(obs["contact"], dtype=float)
-        edge = contact[7:10]
+        """The reading of a dict observation (``tactile_gym.envs.observation``)."""
+        pose = FingertipPoseObs.read(obs)
+        contact = ContactObs.read(obs)
+        rotation = quaternion_to_matrix(pose.quaternion)
+        edge = contact.edge
         return cls(
-            force=rotation @ np.asarray(obs["wrench"][:3], dtype=float),
-            position=pose[:3],
+            force=rotation @ WrenchObs.read(obs).force,
+            position=pose.position,
             rotation=rotation,
-            touching=bool(contact[0] > 0.5),
-            point=contact[1:4],
-            edge=edge / np.linalg.norm(edge) if np.linalg.norm(edge) > 0.5 else None,
-            measurements=int(round(float(obs["progress"][3]))),
+            touching=bool(contact.touching > 0.5),
+            point=contact.point,
+            edge=edge / np.linalg.norm(edge) if contact.has_edge else None,
+            measurements=int(round(ProgressObs.read(obs).measurements)),
         )
 
     @property
@@ -334,7 +342,8 @@ class PrimitiveExecutor:
 
     The primitive ids run each primitive to completion with it; a policy that chooses
     primitives (the scripted prober, or a policy learned on a primitive id) drives a 6-D id
-    through it. After a primitive, ``summary`` describes it as the primitive ids observe it.
+    through it. After a primitive, ``summary`` describes it as the primitive ids observe it
+    (the array of a ``PrimitiveObs``).
 
     Args:
         max_translation: the env's translation for an action of 1, m.
@@ -356,17 +365,23 @@ class PrimitiveExecutor:
         self.scales = scales
         self.reset()
 
+    @classmethod
+    def for_env(
+        cls,
+        env,
+        scales: PrimitiveScales = PrimitiveScales(),  # noqa: B008 - frozen dataclass
+    ) -> PrimitiveExecutor:
+        """The executor of a ``HingeProbeEnv`` (``env.unwrapped``): its translation scale and
+        budget, and probes held one step beyond the gate's dwell."""
+        config = env.config
+        return cls(config.max_translation, env.gate.config.dwell + 1, config.max_steps, scales)
+
     def reset(self) -> None:
         """Forget the probing so far (call at every episode start)."""
         self.frame = ProbeFrame()
         self.name: str | None = None
-        #: (kind: -1 probe, +1 turn, 0 none yet; 1 if it was measured; share of the budget).
-        self.summary = np.zeros(3)
+        self.summary = PrimitiveObs(kind=0.0, measured=0.0, duration=0.0).to_array()
         self._skills: list[Skill] = []
-
-    @property
-    def running(self) -> bool:
-        return self.name is not None
 
     def start(self, action: np.ndarray, obs: dict) -> str:
         """Begin the primitive a normalised action (3,) asks for; returns its name."""
@@ -378,7 +393,7 @@ class PrimitiveExecutor:
             self.scales,
         )
         self._steps = 0
-        self._count = float(obs["progress"][3])
+        self._count = ProgressObs.read(obs).measurements
         return self.name
 
     def act(self, obs: dict) -> np.ndarray | None:
@@ -405,8 +420,10 @@ class PrimitiveExecutor:
         ``summary``."""
         if self.name is None:
             return
-        measured = float(obs["progress"][3] > self._count)
-        kind = 1.0 if self.name == "turn" else -1.0
-        self.summary = np.array([kind, measured, self._steps / self.max_steps])
+        self.summary = PrimitiveObs(
+            kind=1.0 if self.name == "turn" else -1.0,
+            measured=float(ProgressObs.read(obs).measurements > self._count),
+            duration=self._steps / self.max_steps,
+        ).to_array()
         self.name = None
         self._skills = []

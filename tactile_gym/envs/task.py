@@ -24,7 +24,10 @@ import numpy as np
 
 from tactile_gym.validation import check_number
 
-__all__ = ["AxisEstimationTask", "StepFacts", "TaskConfig", "TERMINATION_REASONS"]
+__all__ = ["AxisEstimationTask", "REWARD_TERMS", "StepFacts", "TaskConfig", "TERMINATION_REASONS"]
+
+#: The terms of a step's reward, as named in ``info``; they sum to the reward.
+REWARD_TERMS = ("reward_error_reduction", "reward_force_penalty", "reward_action_cost")
 
 #: Why an episode can end as a failure, in the order they are checked.
 TERMINATION_REASONS = ("left_workspace", "shell_contact", "overloaded")
@@ -118,11 +121,12 @@ class AxisEstimationTask:
         self._previous_error = error
         excess = max(facts.max_force - facts.force_limit, 0.0) / facts.force_limit
         action = np.asarray(facts.action, dtype=float)
-        terms = {
-            "reward_error_reduction": float(error_reduction),
-            "reward_force_penalty": float(-cfg.force_penalty * excess),
-            "reward_action_cost": float(-cfg.action_cost * float(action @ action)),
-        }
+        values = (
+            error_reduction,
+            -cfg.force_penalty * excess,
+            -cfg.action_cost * (action @ action),
+        )
+        terms = {name: float(value) for name, value in zip(REWARD_TERMS, values)}
         return float(sum(terms.values())), terms
 
     def get_termination(self, facts: StepFacts) -> dict[str, bool]:
