@@ -107,8 +107,8 @@ class PrimitiveModelPolicy:
         run = model_run(Path(path))
         primitive_env = gym.make(run["env_id"], **run["env_kwargs"])
         self.inner = ModelPolicy(path, primitive_env)
-        self.space = primitive_env.unwrapped.dict_observation_space
-        self.flat = primitive_env.unwrapped.observation_mode == "flat"
+        self.space = primitive_env.get_wrapper_attr("dict_observation_space")
+        self.flat = primitive_env.unwrapped.config.observation_mode == "flat"
         primitive_env.close()
         self.executor = executor_for(env.unwrapped)
 

@@ -31,7 +31,7 @@ def press(env, target=5.0, sideways=ZERO, hold=6, turn=ZERO):
     step = u.config.max_translation
     obs = None
     for _ in range(40):
-        f = u._touch.force
+        f = u.pipeline.touch.force
         error = target - np.linalg.norm(f)
         if abs(error) < 0.3 and np.linalg.norm(f) > 1.0:
             break
@@ -57,7 +57,7 @@ def test_a_pure_press_on_the_edge_is_one_measurement_of_it():
     angle, distance = edge_error_deg(u, m)
     assert angle < 3.0 and distance < 0.003
     # Oriented physically: the face's interior lies on the side of (force x edge).
-    force = u._touch.force / np.linalg.norm(u._touch.force)
+    force = u.pipeline.touch.force / np.linalg.norm(u.pipeline.touch.force)
     _, direction = u.scene.edge_line
     side = u.scene.object_config.edge_side
     interior = -side * np.cross(u.scene.true_axis[1], direction)

@@ -255,7 +255,7 @@ def attack_primitives(env_id: str, episodes: int, seed: int = 0):
     env = gym.make(env_id, max_steps=300)
     env.action_space.seed(seed)
     return _judge(
-        env, env.unwrapped.env, episodes, seed, lambda k: lambda obs: env.action_space.sample()
+        env, env.unwrapped, episodes, seed, lambda k: lambda obs: env.action_space.sample()
     )
 
 

@@ -41,7 +41,7 @@ def rollout(env_id: str, policy: str, seed: int) -> dict[str, np.ndarray]:
         scripted.reset()
     env.action_space.seed(seed)
     flat, rewards, ends, errors = [], [], [], []
-    space = env.unwrapped.dict_observation_space
+    space = env.get_wrapper_attr("dict_observation_space")
     for _ in range(STEPS[primitive]):
         action = env.action_space.sample() if scripted is None else scripted.get_action(obs)
         obs, reward, terminated, truncated, info = env.step(action)
