@@ -16,12 +16,12 @@ from gymnasium import spaces
 
 from tactile_gym.envs.hinge_probe_v1 import HingeProbeEnv
 from tactile_gym.envs.observation import PrimitiveObs
-from tactile_gym.envs.skills import PRIMITIVES, PrimitiveExecutor, PrimitiveScales
+from tactile_gym.envs.skills import PrimitiveExecutor, PrimitiveScales
 from tactile_gym.envs.step_guard import StepGuard
 from tactile_gym.envs.task import REWARD_TERMS
 from tactile_gym.validation import check_int, check_number
 
-__all__ = ["PRIMITIVES", "PRIMITIVE_KEYWORDS", "HingeProbePrimitiveEnv", "make_primitive_env"]
+__all__ = ["PRIMITIVE_KEYWORDS", "HingeProbePrimitiveEnv", "make_primitive_env"]
 
 #: The wrapper's own keywords of ``gym.make``; the others go to ``HingeProbeEnv``.
 PRIMITIVE_KEYWORDS = ("max_primitives", "probe_across", "probe_along", "turn_distance")

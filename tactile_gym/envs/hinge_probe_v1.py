@@ -198,13 +198,14 @@ class HingeProbeEnv(gym.Env):
 
     A kinematic fingertip (aluminium shell of radius 11 mm under a 5 mm silicone skin, on a
     6-axis force/torque sensor) probes the free link of a two-link object with one revolute
-    joint, as in Matsuo et al. (IROS 2010). The skin is an elastic-foundation model; the F/T
-    reading is the sum of its node forces plus sensor noise. Each control step the env runs
-    Bicchi's intrinsic contact sensing on the reading, passes it through the measurement gate
-    (``tactile_gym.envs.gate``: static pure presses on an edge, and slides along an edge) to
-    the built-in ``JointAxisEstimator``, and rewards the reduction of the estimate's error.
-    Measuring the edge at several link angles, and turning the link in between, is what makes
-    the axis observable.
+    joint, as in Matsuo et al. (IROS 2010). The skin is an elastic-foundation model
+    (``docs/design.md`` 3); the F/T reading is the sum of its node forces plus sensor noise.
+    Each control step the env moves the fingertip, reads the sensor and hands the reading to
+    its measurement pipeline (``tactile_gym.envs.measurement``): Bicchi's intrinsic contact
+    sensing, the measurement gate, which accepts only static pure presses on an edge (slides
+    are not measured: ``docs/design.md`` 4.3, 7.2), and the built-in ``JointAxisEstimator``.
+    It rewards the reduction of the estimate's error. Measuring the edge at several link
+    angles, and turning the link in between, is what makes the axis observable.
 
     ## Action Space
 
@@ -222,39 +223,40 @@ class HingeProbeEnv(gym.Env):
     ## Observation Space
 
     A ``Dict`` of float32 Boxes (``observation_mode="flat"`` concatenates them in the order of
-    ``OBSERVATION_LAYOUT``). Values are clipped to the bounds given.
+    ``OBSERVATION_LAYOUT``). Values are clipped to the bounds given. Each key is a group of
+    named entries in ``tactile_gym.envs.observation`` (``ContactObs.read(obs).tilt``):
 
-    | key            | index | entry                                         | unit | frame  |
-    |----------------|-------|-----------------------------------------------|------|--------|
-    | wrench         | 0-2   | force on the fingertip                        | N    | sensor |
-    |                | 3-5   | moment about the sensor origin                | N m  | sensor |
-    | fingertip_pose | 0-2   | sensor origin                                 | m    | world  |
-    |                | 3-6   | orientation quaternion x, y, z, w             | -    | world  |
-    | contact        | 0     | 1 if this reading gives a contact             | -    | -      |
-    |                | 1-3   | contact point, indentation-corrected          | m    | world  |
-    |                | 4-6   | skin normal at the contact                    | -    | world  |
-    |                | 7-9   | edge direction, oriented physically (0: none) | -    | world  |
-    |                | 10    | predicted RMS edge error (0..pi/2)            | rad  | -      |
-    |                | 11    | tilt of the force from the skin normal        | rad  | -      |
-    | estimate       | 0-2   | axis point closest to the world origin        | m    | world  |
-    |                | 3-5   | axis direction                                | -    | world  |
-    |                | 6     | 1-sigma position uncertainty (0..1)           | m    | -      |
-    |                | 7     | 1-sigma angle uncertainty (0..pi)             | rad  | -      |
-    | last_          | 0-2   | contact point of the last accepted measurement| m    | world  |
-    | measurement    | 3-5   | its edge direction, oriented physically       | -    | world  |
-    |                | 6     | its RMS edge error (pi/2: none yet)           | rad  | -      |
-    | progress       | 0     | span of the measured edge directions          | rad  | -      |
-    |                | 1     | distinct edge directions measured (0..1e4)    | -    | -      |
-    |                | 2     | RMS edge error of the last measurement        | rad  | -      |
-    |                | 3     | measurements accepted (0..1e4)                | -    | -      |
-    |                | 4     | fraction of the episode left (1..0)           | -    | -      |
+    | key            | entry (index)     | meaning                                 | unit | frame  |
+    |----------------|-------------------|-----------------------------------------|------|--------|
+    | wrench         | force (0-2)       | force on the fingertip                  | N    | sensor |
+    |                | moment (3-5)      | moment about the sensor origin          | N m  | sensor |
+    | fingertip_pose | position (0-2)    | sensor origin                           | m    | world  |
+    |                | quaternion (3-6)  | orientation x, y, z, w                  | -    | world  |
+    | contact        | touching (0)      | 1 if this reading gives a contact       | -    | -      |
+    |                | point (1-3)       | contact point, indentation-corrected    | m    | world  |
+    |                | normal (4-6)      | skin normal at the contact              | -    | world  |
+    |                | edge (7-9)        | edge direction, oriented physically     | -    | world  |
+    |                | edge_std (10)     | predicted RMS edge error (0..pi/2)      | rad  | -      |
+    |                | tilt (11)         | tilt of the force from the skin normal  | rad  | -      |
+    | estimate       | point (0-2)       | axis point closest to the world origin  | m    | world  |
+    |                | direction (3-5)   | axis direction                          | -    | world  |
+    |                | position_std (6)  | 1-sigma position uncertainty (0..1)     | m    | -      |
+    |                | angle_std (7)     | 1-sigma angle uncertainty (0..pi)       | rad  | -      |
+    | last_          | point (0-2)       | contact point of the last measurement   | m    | world  |
+    | measurement    | edge (3-5)        | its edge direction, oriented physically | -    | world  |
+    |                | edge_std (6)      | its RMS edge error (pi/2: none yet)     | rad  | -      |
+    | progress       | span (0)          | span of the measured edge directions    | rad  | -      |
+    |                | directions (1)    | distinct edge directions (0..1e4)       | -    | -      |
+    |                | last_edge_std (2) | RMS edge error of the last measurement  | rad  | -      |
+    |                | measurements (3)  | measurements accepted (0..1e4)          | -    | -      |
+    |                | time_left (4)     | fraction of the episode left (1..0)     | -    | -      |
 
     Invalid entries (no contact, edge not observable) are zeros with their flag or std at
     their "none" value. The estimate is always defined: before any measurement it is the prior
     (the mean axis of the env's reset distribution, with its spread), so a policy without
     memory sees how well the axis is known, how widely the link has been turned (the span of
     the measured edges) and how much time is left. The uncertainties are the estimator's,
-    floored at what the model error allows (``docs/design.md``).
+    floored at what the model error allows (``docs/design.md`` 6.5, 7.5).
 
     ## Rewards
 

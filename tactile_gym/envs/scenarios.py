@@ -8,7 +8,8 @@ fingertip starts a few millimetres above the face of the free link that looks up
 probed edge, like the paper's operator who brings the fingertip near the grip. Everything else
 is drawn so that the first observation does not encode the edge: where along the link, how far
 across the edge (over the face or beyond it), the height, and the direction in which the
-finger leans (uniform in azimuth). The policy finds the edge by touch.
+finger leans (uniform in azimuth). The policy finds the edge by touch (``docs/design.md`` 7.7,
+8).
 """
 
 from __future__ import annotations
@@ -28,7 +29,6 @@ __all__ = [
     "Scenario",
     "ScenarioConfig",
     "probed_edge",
-    "quaternion_z_to",
     "sample_scenario",
 ]
 
@@ -107,11 +107,6 @@ def probed_edge(config: ObjectConfig, joint_angle: float) -> tuple[np.ndarray, .
     return origin, x_r, side * y_r, z_h
 
 
-def quaternion_z_to(direction: np.ndarray) -> np.ndarray:
-    """The xyzw quaternion that turns +z onto ``direction`` (a unit vector)."""
-    return matrix_to_quaternion(z_to(direction))
-
-
 def _sample_object(
     family: str, rng: np.random.Generator, cfg: ScenarioConfig, overrides: dict
 ) -> ObjectConfig:
@@ -144,7 +139,8 @@ def _start_pose(
     azimuth: float,
     geometry: FingertipGeometry,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Sensor origin and orientation for a hemisphere centre above the face that looks up."""
+    """Sensor origin and orientation (xyzw quaternion, as ``ProbeScene.reset`` takes it) for a
+    hemisphere centre above the face that looks up; the finger axis is the sensor's +z."""
     origin, direction, side_normal, top_normal = probed_edge(config, angle)
     # The face that looks up is the one the finger starts above; "across" is measured
     # toward the other face's outward normal, i.e. beyond the edge.
@@ -156,7 +152,7 @@ def _start_pose(
     tilt = rotvec_to_matrix(lean * (np.cos(azimuth) * direction + np.sin(azimuth) * side_normal))
     finger_axis = tilt @ -top_normal
     position = centre - geometry.cylinder_length * finger_axis
-    return position, quaternion_z_to(finger_axis)
+    return position, matrix_to_quaternion(z_to(finger_axis))
 
 
 def sample_scenario(

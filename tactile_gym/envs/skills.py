@@ -3,22 +3,22 @@
 Each skill turns observations into normalised actions until it is done. They read only the
 observation (the F/T reading, the fingertip pose, the contact estimate), never the simulator,
 and they serve both the probing-primitive envs (one primitive runs one or a few skills) and
-the scripted baselines of every id. World frame, metres, newtons, radians.
+the scripted baselines of every id. They read observations by name
+(``tactile_gym.envs.observation``). World frame, metres, newtons, radians.
 
 A :class:`ProbeFrame` carries what probing has revealed so far: where the last contact was,
 the normal of the face being probed (the line of the force of a pure press, which pushes
-along the face normal), and the edge (oriented physically, ``tactile_gym.envs.touch``), from
+along the face normal), and the edge (oriented physically, ``docs/design.md`` 7.3), from
 which the face's interior side follows. Until the first press the face normal is taken as
 world +z: the fingertip starts above the face that looks up.
 
-The physics each skill relies on (``docs/design.md``):
+The physics each skill relies on (``docs/design.md`` 4.1, 4.2, 7.6):
 
 * :class:`Press` moves only along the face normal once touching, so the skin is not dragged and
   the press is *pure*; it holds still for the gate's dwell, so the readings are averaged into
   one measurement.
 * :class:`Drag` turns the link: pressing on the face near the edge and moving across the edge
-  toward the face's interior, the sticking skin carries the link along (at 5.5 N and mu = 0.5
-  the friction torque beats the joint's holding torque from about 40 mm out).
+  toward the face's interior, the sticking skin carries the link along.
 * :class:`Lift` ends a touch, so that the next press starts with an unloaded skin.
 """
 

@@ -1,4 +1,5 @@
-"""Reward, success and termination of the joint-axis estimation task.
+"""Reward, success and termination of the joint-axis estimation task (``docs/design.md`` 7.4,
+7.8).
 
 The task sees only numbers that the env hands it: estimation errors (metres, radians), forces
 (newtons), the fingertip's distance from the hinge and the action. Keeping these rules here,
@@ -8,12 +9,10 @@ away from ``step()``, lets tests check every reward term and every termination r
 Reward. With the combined error ``E = min(position_error + L * angle_error, E_max)``, a step
 earns ``(E_{t-1} - E_t) / E_scale`` minus its penalties, and ``E_0`` is the error of the
 estimate at reset. The env's estimate at reset is its prior: the nominal layout and the spread
-of the reset distribution (``tactile_gym.estimation.AxisPrior``), what a user knows before touching
-anything. So the return telescopes to ``(E_0 - E_T) / E_scale``, the error the agent removed
-from what it knew at the start: an early, poorly supported estimate does not pay unless it is
-better than the prior, and random actions earn about nothing. (The v0 task started every
-episode at the 100 mm cap instead, so the first estimate, however bad, paid most of the
-return.)
+of the reset distribution (``tactile_gym.estimation.AxisPrior``), what a user knows before
+touching anything. So the return telescopes to ``(E_0 - E_T) / E_scale``, the error the agent
+removed from what it knew at the start: an early, poorly supported estimate does not pay
+unless it is better than the prior, and random actions earn about nothing.
 """
 
 from __future__ import annotations
