@@ -3,6 +3,8 @@ guard, reset scenarios, prior, plotting."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -14,8 +16,10 @@ from tactile_gym.envs.controller import DeltaPoseController
 from tactile_gym.envs.observation import (
     OBSERVATION,
     ContactObs,
+    EstimateObs,
     LastMeasurementObs,
     ProgressObs,
+    WrenchObs,
 )
 from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, probed_edge, sample_scenario
 from tactile_gym.envs.step_guard import StepGuard
@@ -65,9 +69,10 @@ def test_codec_names_every_entry_of_the_observation():
 
 def test_codec_clips_to_the_bounds_and_zeroes_nan():
     parts = {key: g.space().high.astype(float) * 2.0 for key, g in OBSERVATION.groups.items()}
-    parts["contact"][1:4] = np.nan
+    contact = ContactObs.from_array(parts["contact"])
+    parts["contact"] = dataclasses.replace(contact, point=np.full(3, np.nan)).to_array()
     obs = OBSERVATION.encode(parts, "dict")
-    assert obs["wrench"][0] == np.float32(60.0)  # the force bound, N
+    np.testing.assert_array_equal(WrenchObs.read(obs).force, 60.0)  # the force bound, N
     np.testing.assert_array_equal(ContactObs.read(obs).point, 0.0)
     with pytest.raises(ValueError, match="observation_mode"):
         OBSERVATION.space("list")
@@ -206,9 +211,10 @@ def test_env_starts_from_its_prior():
     obs, info = env.reset(seed=0)
     u = env.unwrapped
     assert u.axis_estimate.method == "prior"
-    np.testing.assert_allclose(obs["estimate"][:3], u.axis_estimate.point, atol=1e-6)
+    estimate = EstimateObs.read(obs)
+    np.testing.assert_allclose(estimate.point, u.axis_estimate.point, atol=1e-6)
     # The prior's spread is the reset's: the hinge moves +-10 mm in x and y.
-    assert 0.005 < obs["estimate"][6] < 0.012
+    assert 0.005 < estimate.position_std < 0.012
     assert np.isfinite(info["position_error"]) and info["position_error"] < 0.02
     env.close()
 

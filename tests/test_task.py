@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from tactile_gym.envs.task import (
+    REWARD_TERMS,
     TERMINATION_REASONS,
     AxisEstimationTask,
     StepFacts,
@@ -48,6 +49,7 @@ def test_reward_is_the_sum_of_its_terms_and_penalties_bite():
     task = AxisEstimationTask(TaskConfig())
     task.initialize_episode(0.01, 0.0)
     reward, terms = task.get_reward(facts(max_force=12.0, action=np.ones(6)))
+    assert tuple(terms) == REWARD_TERMS  # the names the primitive ids sum over a primitive
     assert reward == pytest.approx(sum(terms.values()))
     assert terms["reward_force_penalty"] == pytest.approx(-0.1 * 4.0 / 8.0)
     assert terms["reward_action_cost"] == pytest.approx(-0.006)
