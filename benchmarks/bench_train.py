@@ -60,8 +60,10 @@ def _factory(env_id: str, env_kwargs: dict, dummy: bool):
             return env
         # The env truncates episodes itself (no TimeLimit): a 6-D id after max_steps control
         # steps, a primitive id after max_primitives primitives at most.
-        u = env.unwrapped
-        episode_steps = getattr(u, "max_primitives", None) or u.config.max_steps
+        if env.has_wrapper_attr("max_primitives"):
+            episode_steps = env.get_wrapper_attr("max_primitives")
+        else:
+            episode_steps = env.unwrapped.config.max_steps
         spaces_env = SpacesEnv(env.observation_space, env.action_space, episode_steps)
         env.close()
         return spaces_env
