@@ -26,6 +26,7 @@ from gymnasium import spaces
 from tactile_gym.validation import check_choice
 
 __all__ = [
+    "NO_EDGE",
     "OBSERVATION",
     "OBSERVATION_LAYOUT",
     "ContactObs",
