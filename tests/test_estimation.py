@@ -129,13 +129,13 @@ def _assert_same_estimate(a: AxisEstimate, b: AxisEstimate, rtol: float = 1e-9) 
 
 @pytest.mark.parametrize("weighted", [False, True])
 def test_planar_numpy_and_loop_paths_agree(weighted: bool, monkeypatch) -> None:
-    from tactile_gym.estimation import fits
+    from tactile_gym.estimation import planar
 
     pts, eds = make_planar(np.random.default_rng(1), n=20)
     w = np.random.default_rng(2).uniform(0.5, 2.0, 20) if weighted else None
-    fast = fits._planar_fit(pts, eds, w)
-    monkeypatch.setattr(fits, "_PLANAR_NUMPY_MIN_N", 10_000)
-    loop = fits._planar_fit(pts, eds, w)
+    fast = planar.planar_fit(pts, eds, w)
+    monkeypatch.setattr(planar, "NUMPY_MIN_N", 10_000)
+    loop = planar.planar_fit(pts, eds, w)
     _assert_same_estimate(loop, fast)
 
 
@@ -1029,17 +1029,17 @@ def test_online_3d_warm_start_matches_batch_fit(monkeypatch) -> None:
     whenever both keep the same measurements (most streams); otherwise the two consensus
     sets differ by a borderline measurement and the estimates by up to about one std.
     """
-    from tactile_gym.estimation import online as online_mod
+    from tactile_gym.estimation.fit3d import Fit3D
 
     calls = {"warm": 0}
-    real_update = online_mod._update_state
+    real_update = Fit3D.update
 
-    def counting_update(*args):
-        out = real_update(*args)
+    def counting_update(self, data):
+        out = real_update(self, data)
         calls["warm"] += out is not None
         return out
 
-    monkeypatch.setattr(online_mod, "_update_state", counting_update)
+    monkeypatch.setattr(Fit3D, "update", counting_update)
     streams = [_online_3d_stream(seed) for seed in range(10)]
     # The warm-started path did a good part of the 210 updates (the rest: full refits
     # every 25 % of growth and when a new measurement is an outlier under the estimate).
@@ -1048,7 +1048,7 @@ def test_online_3d_warm_start_matches_batch_fit(monkeypatch) -> None:
     for p, u, pts, eds, online, result in streams:
         assert result is not None
         # Same measurements, same edge orientation: same minimum.
-        state = online._state
+        state = online.axis_fit.state
         kept = fit_axis_3d(
             pts[state.mask],
             state.edges[state.mask],

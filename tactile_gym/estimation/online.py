@@ -21,21 +21,10 @@ import math
 
 import numpy as np
 
-from tactile_gym.estimation.axis import (
-    AxisEstimate,
-    as_edge_covs,
-    degenerate_estimate,
-    isotropic_edge_covs,
-)
-from tactile_gym.estimation.fit3d import _fit_state, _Noise, _update_state
-from tactile_gym.estimation.fits import (
-    _isotropic_rotation_variance,
-    _planar_fit,
-    _robust_planar,
-    _Rows,
-    edge_rotation_variance,
-    planar_residual_variance,
-)
+from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs
+from tactile_gym.estimation.fit3d import Fit3D
+from tactile_gym.estimation.fits import PlanarFit
+from tactile_gym.estimation.interface import AxisFit, Measurements
 from tactile_gym.estimation.prior import AxisPrior, check_prior
 from tactile_gym.estimation.robust import check_loss
 from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
@@ -47,11 +36,6 @@ MODES = ("planar", "3d")
 # Edge directions closer than this (or 3 edge stds) count as the same direction when
 # checking identifiability, rad.
 _DISTINCT_TOL = math.radians(0.5)
-
-# With a robust loss, both modes redo the full fit (consensus included) once the number of
-# measurements has grown by this factor since the last full fit; in between they refit
-# warm-started from the previous solution.
-_FULL_REFIT_GROWTH = 1.25
 
 
 class JointAxisEstimator:
@@ -126,17 +110,13 @@ class JointAxisEstimator:
         self._edges = np.empty((cap, 3))
         self._point_std = np.empty(cap)
         self._edge_std = np.empty(cap)
-        # The noise the fits use: planar, the variance of the edge's rotation about z
-        # (rad^2); 3d, the edge covariance (rad^2).
+        # The edge noise as the fit uses it (AxisFit.edge_noise).
         self._edge_noise = np.empty((cap,) if self.mode == "planar" else (cap, 3, 3))
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
         self._cached: AxisEstimate | None = None
         self._stale = True
-        self._last: AxisEstimate | None = None
-        # The last robust solution, for warm starts: 3d mode, a fit3d._Solution; planar
-        # mode, the (theta, sel, sign) of fits._robust_planar.
-        self._state = None
-        self._n_full = 0  # measurements at the last full (consensus) fit
+        fit = PlanarFit if self.mode == "planar" else Fit3D
+        self._fit = fit(self.loss, self.prior)
 
     @property
     def n_measurements(self) -> int:
@@ -159,9 +139,9 @@ class JointAxisEstimator:
         return self._view(self._edges)
 
     @property
-    def point_stds(self) -> np.ndarray:
-        """(N,) contact-point stds, m (read-only)."""
-        return self._view(self._point_std)
+    def axis_fit(self) -> AxisFit:
+        """The fit the estimator refits with; its ``state`` is the last solution."""
+        return self._fit
 
     @property
     def edge_stds(self) -> np.ndarray:
@@ -230,18 +210,10 @@ class JointAxisEstimator:
             if cov.shape != (1, 3, 3):
                 raise ValueError(f"edge_cov must have shape (3, 3), got {cov.shape[1:]}")
             cov = as_edge_covs(cov, np.array(el)[None] / length)
+        # From the edge as given, before its z part goes (planar) and it is normalised.
+        noise = self._fit.edge_noise(np.array(el), e.shape[0], se, None if cov is None else cov[0])
         if self.mode == "planar":
-            # From the edge as given, before its z part goes.
-            if cov is None:
-                rho2 = (el[0] * el[0] + el[1] * el[1]) / (length * length)
-                noise = _isotropic_rotation_variance(se, rho2, e.shape[0])
-            else:
-                noise = edge_rotation_variance(e[None], se, cov)[0]
             el[2] = 0.0
-        elif cov is None:
-            noise = isotropic_edge_covs(np.array(el)[None] / length, se)[0]
-        else:
-            noise = cov[0]
         el = [v / norm for v in el]
         if len(xl) == 2:
             xl.append(0.0)
@@ -276,8 +248,6 @@ class JointAxisEstimator:
             return self._cached
         self._stale = False
         self._cached = self._refit()
-        if self._cached is not None:
-            self._last = self._cached
         return self._cached
 
     def _refit(self) -> AxisEstimate | None:
@@ -287,12 +257,10 @@ class JointAxisEstimator:
             n < self.min_measurements or (self.mode == "planar" and len(self._dirs) < 3)
         ):
             return None
-        if n == 0:
-            return prior.estimate(planar=self.mode == "planar")
-        if self.mode == "planar":
-            est = self._refit_planar()
-        else:
-            est = self._refit_3d()
+        data = Measurements(
+            self._points[:n], self._edges[:n], self._point_std[:n], self._edge_noise[:n]
+        )
+        est = self._fit.refit(data)
         if prior is not None:
             # Flagged if degenerate (the prior keeps the system regular; only overflowing
             # input could), never None.
@@ -302,54 +270,3 @@ class JointAxisEstimator:
         if self.mode == "3d" and len(self._dirs) < 3 and est.method != "3d-parallel":
             return None
         return est
-
-    def _refit_3d(self) -> AxisEstimate:
-        n = self._n
-        est = None
-        x = self._points[:n]
-        noise = _Noise(self._point_std[:n].copy(), self._edge_noise[:n].copy())
-        if self._state is not None and n < self._n_full * _FULL_REFIT_GROWTH:
-            out = _update_state(x, self._edges[:n], noise, self.loss, self._state, self.prior)
-            if out is not None:
-                est, self._state = out
-        if est is None:
-            est, self._state = _fit_state(
-                x.copy(),
-                self._edges[:n].copy(),
-                np.ones(n),
-                noise,
-                self.loss,
-                None,
-                math.radians(1.0),
-                self.prior,
-            )
-            self._n_full = n
-        return est
-
-    def _refit_planar(self) -> AxisEstimate:
-        n = self._n
-        x = self._points[:n]
-        e = self._edges[:n]
-        sx = self._point_std[:n]
-        var_z = self._edge_noise[:n]
-        prior = self.prior
-        if self.loss != "linear":
-            # Warm start from the last solution (no consensus) until the measurements have
-            # grown by _FULL_REFIT_GROWTH; every row of the online data is usable.
-            start = self._state if n < self._n_full * _FULL_REFIT_GROWTH else None
-            rows = _Rows(x, e, None, sx, var_z, prior)
-            est, self._state = _robust_planar(rows, self.loss, None, start)
-            if start is None:
-                self._n_full = n
-            return est
-        prev = self._last
-        passes = 1
-        if prev is None or prev.degenerate:
-            prev = _planar_fit(x, e, None) if prior is None else prior.estimate(planar=True)
-            passes = 2
-        for _ in range(passes):
-            if prev is None or prev.degenerate:
-                return degenerate_estimate("planar", n, planar=True)
-            var = planar_residual_variance(x[:, :2], e[:, :2], prev.point[:2], sx, var_z)
-            prev = _planar_fit(x, e, 1.0 / var, prior)
-        return degenerate_estimate("planar", n, planar=True) if prev is None else prev
