@@ -7,12 +7,12 @@ contact-point std per axis (m), ``edge_std`` the edge's total RMS angle error (r
 ``edge_cov`` optionally its full covariance (rad^2), as for
 :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`.
 
-Weighting (docs/design.md 6.3: the fit is badly conditioned over small rotations). Each
-measurement is weighted by the inverse of its predicted residual variance; in the planar
-mode ``point_std^2 + lever^2 var_z``, where ``var_z`` is the variance of the edge's rotation
-about z and the lever the distance along the edge from the contact point to the foot of
-the perpendicular from the axis. The lever needs an axis: the previous estimate provides
-it (two passes when there is none yet).
+The estimator validates and stores the measurements, tracks whether they identify the axis,
+and refits through one :class:`~tactile_gym.estimation.interface.AxisFit`
+(:class:`~tactile_gym.estimation.fits.PlanarFit` or
+:class:`~tactile_gym.estimation.fit3d.Fit3D`), warm-started from its last solution where it
+can. Each measurement is weighted by the inverse of its predicted residual variance
+(docs/design.md 6.3: the fit is badly conditioned over small rotations).
 """
 
 from __future__ import annotations
@@ -61,10 +61,9 @@ class JointAxisEstimator:
     ``min_measurements`` and the distinct directions do not apply. The planar mode uses
     the prior's pin (x-y) only: its axis is vertical by assumption.
 
-    Both modes use ``loss``: with ``"linear"`` the planar mode is a weighted linear
-    least-squares fit, refitted once per update with the residual variances of the previous
-    estimate; with a robust loss it is :func:`~tactile_gym.estimation.fits.fit_axis_planar`'s
-    robust fit (consensus from 6 measurements on). Results are cached; ``estimate()``
+    Both modes use ``loss``; how each fit uses it and warm-starts is told by
+    :class:`~tactile_gym.estimation.fits.PlanarFit` and
+    :class:`~tactile_gym.estimation.fit3d.Fit3D`. Results are cached; ``estimate()``
     refits only after ``add``.
 
     Args:
