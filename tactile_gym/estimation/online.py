@@ -108,7 +108,6 @@ class JointAxisEstimator:
         self._points = np.empty((cap, 3))
         self._edges = np.empty((cap, 3))
         self._point_std = np.empty(cap)
-        self._edge_std = np.empty(cap)
         # The edge noise as the fit uses it (AxisFit.edge_noise).
         self._edge_noise = np.empty((cap,) if self.mode == "planar" else (cap, 3, 3))
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
@@ -141,11 +140,6 @@ class JointAxisEstimator:
     def axis_fit(self) -> AxisFit:
         """The fit the estimator refits with; its ``state`` is the last solution."""
         return self._fit
-
-    @property
-    def edge_stds(self) -> np.ndarray:
-        """(N,) edge stds (total RMS angle errors) as given, rad (read-only)."""
-        return self._view(self._edge_std)
 
     def add(
         self,
@@ -223,7 +217,6 @@ class JointAxisEstimator:
         # The first edge keeps its sign; later ones follow the best-aligned of the last few.
         self._edges[n] = orient_like(el, self._edges[max(0, n - SIGN_LOOKBACK) : n]) if n else el
         self._point_std[n] = sx
-        self._edge_std[n] = se
         self._edge_noise[n] = noise
         self._n = n + 1
         if len(self._dirs) < 3:
@@ -234,7 +227,7 @@ class JointAxisEstimator:
         self._stale = True
 
     def _grow(self) -> None:
-        for name in ("_points", "_edges", "_point_std", "_edge_std", "_edge_noise"):
+        for name in ("_points", "_edges", "_point_std", "_edge_noise"):
             old = getattr(self, name)
             new = np.empty((2 * old.shape[0],) + old.shape[1:])
             new[: self._n] = old[: self._n]
