@@ -143,7 +143,7 @@ def test_robust_loss_derivatives_are_those_of_rho(loss: str) -> None:
     np.testing.assert_allclose(d2, (up[1] - down[1]) / (2 * h), rtol=1e-5, atol=1e-9)
     # rho(0) = 0 and rho'(0) = 1: every loss is least squares near zero.
     zero = robust_loss(np.zeros(1), loss)
-    assert zero[0, 0] == 0.0 and zero[1, 0] == 1.0
+    assert zero[0][0] == 0.0 and zero[1][0] == 1.0
 
 
 @pytest.mark.parametrize("loss", LOSSES)

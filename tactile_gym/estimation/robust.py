@@ -46,49 +46,67 @@ def mad_f_scale(residuals: np.ndarray) -> float:
     return max(2.0 * MAD_TO_STD * float(np.median(np.abs(residuals))), 1e-9)
 
 
-def robust_loss(s: np.ndarray, loss: str) -> np.ndarray:
+def robust_loss(s: np.ndarray, loss: str, orders: tuple[int, ...] = (0, 1, 2)) -> tuple:
     """The loss ``rho`` and its first two derivatives at ``s = (z / f_scale)^2``.
 
     This is the one definition of the losses: the cost, the IRLS weights and the Newton
-    weights below derive from it, and it is the callable form scipy's ``least_squares``
-    takes.
+    weights below derive from it, and so does the callable loss given to scipy's
+    ``least_squares`` (:func:`split_loss`).
 
     Args:
         s: (N,) squared scaled residuals, >= 0.
         loss: one of ``LOSSES``.
+        orders: which of ``rho`` (0), ``rho'`` (1) and ``rho''`` (2) to compute, in
+            increasing order (the fits' inner loops need only some; each is a few array
+            operations on a few dozen residuals, where the per-call cost dominates).
 
     Returns:
-        (3, N): ``rho(s)``, ``rho'(s)`` and ``rho''(s)``.
+        A tuple of (N,) arrays, one per order asked for.
     """
-    out = np.empty((3, s.size))
+    out = []
     if loss == "soft_l1":
         t = 1.0 + s
-        w = 1.0 / np.sqrt(t)
-        out[0] = 2.0 * (np.sqrt(t) - 1.0)
-        out[1] = w
-        out[2] = -0.5 * w * w * w
+        root = np.sqrt(t)
+        if 0 in orders:
+            out.append(2.0 * (root - 1.0))
+        if 1 in orders or 2 in orders:
+            w = 1.0 / root
+            if 1 in orders:
+                out.append(w)
+            if 2 in orders:
+                out.append(-0.5 * w * w * w)
     elif loss == "huber":
         far = s > 1.0
         root = np.sqrt(np.where(far, s, 1.0))
-        out[0] = np.where(far, 2.0 * root - 1.0, s)
-        out[1] = np.where(far, 1.0 / root, 1.0)
-        out[2] = np.where(far, -0.5 / (root * root * root), 0.0)
+        if 0 in orders:
+            out.append(np.where(far, 2.0 * root - 1.0, s))
+        if 1 in orders:
+            out.append(np.where(far, 1.0 / root, 1.0))
+        if 2 in orders:
+            out.append(np.where(far, -0.5 / (root * root * root), 0.0))
     elif loss == "cauchy":
-        out[0] = np.log1p(s)
-        out[1] = 1.0 / (1.0 + s)
-        out[2] = -(out[1] * out[1])
+        w = 1.0 / (1.0 + s)
+        if 0 in orders:
+            out.append(np.log1p(s))
+        if 1 in orders:
+            out.append(w)
+        if 2 in orders:
+            out.append(-(w * w))
     else:
-        out[0] = s
-        out[1] = 1.0
-        out[2] = 0.0
-    return out
+        if 0 in orders:
+            out.append(s)
+        if 1 in orders:
+            out.append(np.ones_like(s))
+        if 2 in orders:
+            out.append(np.zeros_like(s))
+    return tuple(out)
 
 
 def loss_cost(z: np.ndarray, loss: str, f_scale: float) -> float:
     """scipy's least_squares cost ``0.5 f^2 sum rho((z / f)^2)`` of whitened residuals."""
     if loss == "linear":
         return 0.5 * float(z @ z)
-    rho = robust_loss((z / f_scale) ** 2, loss)[0]
+    (rho,) = robust_loss((z / f_scale) ** 2, loss, (0,))
     return 0.5 * f_scale * f_scale * float(rho.sum())
 
 
@@ -107,7 +125,7 @@ def split_loss(loss: str, m: int):
     """
 
     def rho(s: np.ndarray) -> np.ndarray:
-        out = robust_loss(s, "linear")
+        out = np.array(robust_loss(s, "linear"))
         out[:, :m] = robust_loss(s[:m], loss)
         return out
 
@@ -123,14 +141,14 @@ def robust_weights(r: np.ndarray, loss: str, f_scale: float, curvature: bool = F
     that every residual keeps some curvature in the Gauss-Newton matrix.
     """
     s = (r / f_scale) ** 2
-    d = robust_loss(s, loss)
     if not curvature:
-        return d[1]
-    newton = d[1] + 2.0 * s * d[2]
+        return robust_loss(s, loss, (1,))[0]
+    d1, d2 = robust_loss(s, loss, (1, 2))
+    newton = d1 + 2.0 * s * d2
     if loss == "soft_l1":
         # Positive everywhere: its cost is strictly convex in r.
-        return d[1], newton
-    return d[1], np.maximum(newton, 0.05 * d[1])
+        return d1, newton
+    return d1, np.maximum(newton, 0.05 * d1)
 
 
 def sign_flips(keep: np.ndarray, flipped: np.ndarray, dof: int) -> np.ndarray:
