@@ -6,7 +6,7 @@ The online estimator (:class:`~tactile_gym.estimation.online.JointAxisEstimator`
 (:class:`~tactile_gym.estimation.fit3d.Fit3D`, docs/design.md 6.2) both implement it. An
 update starts from the solution of the previous call (the fit's ``state``), which is what
 keeps the estimator cheap enough to run at every step of an env; a fit starts afresh
-(consensus included, docs/design.md 6.4).
+(consensus included, docs/design.md 6.4, 6.8).
 
 Conventions: world frame, metres, radians; the measurement noise is absolute (a std for
 each contact point and a noise for each edge), so a prior (docs/design.md 6.6) can be fused.

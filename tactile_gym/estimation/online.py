@@ -11,8 +11,8 @@ The estimator validates and stores the measurements, tracks whether they identif
 and refits through one :class:`~tactile_gym.estimation.interface.AxisFit`
 (:class:`~tactile_gym.estimation.fits.PlanarFit` or
 :class:`~tactile_gym.estimation.fit3d.Fit3D`), warm-started from its last solution where it
-can. Each measurement is weighted by the inverse of its predicted residual variance
-(docs/design.md 6.3: the fit is badly conditioned over small rotations).
+can (docs/design.md 6.8). Each measurement is weighted by the inverse of its predicted
+residual variance (docs/design.md 6.3: the fit is badly conditioned over small rotations).
 """
 
 from __future__ import annotations
