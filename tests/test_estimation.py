@@ -1032,23 +1032,31 @@ def test_online_3d_warm_start_matches_batch_fit(monkeypatch) -> None:
     from tactile_gym.estimation.fit3d import Fit3D
 
     calls = {"warm": 0}
-    real_update = Fit3D.update
+    fits: list[Fit3D] = []  # each estimator's fit, in stream order
+    real_update, real_fit = Fit3D.update, Fit3D.fit
 
     def counting_update(self, data):
         out = real_update(self, data)
         calls["warm"] += out is not None
         return out
 
+    def recording_fit(self, data):
+        if not any(f is self for f in fits):
+            fits.append(self)
+        return real_fit(self, data)
+
     monkeypatch.setattr(Fit3D, "update", counting_update)
+    monkeypatch.setattr(Fit3D, "fit", recording_fit)
     streams = [_online_3d_stream(seed) for seed in range(10)]
+    assert len(fits) == len(streams)
     # The warm-started path did a good part of the 210 updates (the rest: full refits
     # every 25 % of growth and when a new measurement is an outlier under the estimate).
     assert calls["warm"] >= 80
     close = same = 0
-    for p, u, pts, eds, online, result in streams:
+    for (p, u, pts, eds, _, result), fit in zip(streams, fits, strict=True):
         assert result is not None
         # Same measurements, same edge orientation: same minimum.
-        state = online.axis_fit.state
+        state = fit.state
         kept = fit_axis_3d(
             pts[state.mask],
             state.edges[state.mask],

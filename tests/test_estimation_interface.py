@@ -115,15 +115,15 @@ def test_fit_of_no_measurement_with_a_prior_is_the_prior(fit_cls, planar) -> Non
     np.testing.assert_allclose(est.point, prior.estimate(planar=planar).point)
 
 
-def test_the_estimator_refits_through_its_axis_fit() -> None:
-    """JointAxisEstimator's estimate is its AxisFit's, fitted to what it was given."""
+def test_the_estimator_is_its_fit_of_what_it_was_given() -> None:
+    """JointAxisEstimator's estimate is Fit3D's fit of its points and oriented edges."""
     pts, eds = _stream(np.random.default_rng(3), np.array([0.3, -0.2, 1.0]), 10)
     online = JointAxisEstimator("3d")
     for x, e in zip(pts, eds, strict=True):
         online.add(x, e, SIGMA_X, SIGMA_E)
     est = online.estimate()
-    assert isinstance(online.axis_fit, Fit3D) and online.axis_fit.state is not None
-    batch = Fit3D("soft_l1").fit(_measurements(Fit3D("soft_l1"), pts, online.edges, False))
+    fit = Fit3D("soft_l1")
+    batch = fit.fit(_measurements(fit, online.points, online.edges, False))
     assert np.linalg.norm(est.point - batch.point) < 0.05 * batch.position_std
 
 

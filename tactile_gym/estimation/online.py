@@ -24,7 +24,7 @@ import numpy as np
 from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs
 from tactile_gym.estimation.fit3d import Fit3D
 from tactile_gym.estimation.fits import PlanarFit
-from tactile_gym.estimation.interface import AxisFit, Measurements
+from tactile_gym.estimation.interface import Measurements
 from tactile_gym.estimation.prior import AxisPrior, check_prior
 from tactile_gym.estimation.robust import check_loss
 from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
@@ -135,11 +135,6 @@ class JointAxisEstimator:
     def edges(self) -> np.ndarray:
         """(N, 3) unit edge directions as oriented for the fit (read-only; planar: z = 0)."""
         return self._view(self._edges)
-
-    @property
-    def axis_fit(self) -> AxisFit:
-        """The fit the estimator refits with; its ``state`` is the last solution."""
-        return self._fit
 
     def add(
         self,
