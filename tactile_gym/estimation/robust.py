@@ -1,8 +1,10 @@
-"""Robust losses, minimal-set consensus and edge-sign decisions shared by the fits.
+"""Robust losses, minimal-set consensus and edge-sign decisions shared by the fits
+(docs/design.md 6.4).
 
 Residuals here are whitened (divided by their predicted standard deviation) or, when no
-noise model is given, in metres. The losses are those of scipy's ``least_squares``: the
-cost of a residual z is ``0.5 f^2 rho((z / f)^2)`` with ``f = f_scale``.
+noise model is given, in metres. The losses are those of scipy's ``least_squares``, defined
+once in :func:`robust_loss`: the cost of a residual z is ``0.5 f^2 rho((z / f)^2)`` with
+``f = f_scale``. Chi-square quantiles come from ``scipy.stats.chi2``.
 """
 
 from __future__ import annotations
