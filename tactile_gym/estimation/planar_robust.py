@@ -171,11 +171,12 @@ class Rows:
 
 
 def robust_planar(rows: Rows, loss: str, f_scale: float | None, start=None):
-    """:func:`fit_axis_planar` with a robust loss, on validated rows with oriented edges.
+    """:func:`~tactile_gym.estimation.fits.fit_axis_planar` with a robust loss, on validated
+    rows with oriented edges.
 
     Args:
         rows: the rows.
-        loss, f_scale: as for :func:`fit_axis_planar`.
+        loss, f_scale: as for :func:`~tactile_gym.estimation.fits.fit_axis_planar`.
         start: optional ``(theta, sel, sign)`` of an earlier fit of the first rows (the
             online estimator's): it replaces the consensus, the rows after them join
             as candidates.
