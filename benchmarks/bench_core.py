@@ -1,7 +1,10 @@
 """Speed of the core numpy/scipy paths: contact sensing, axis fits, online update.
 
 Run: ``python benchmarks/bench_core.py``. Prints a markdown table of microseconds per call
-(median over repeats, each repeat averaging several calls via timeit) with the targets.
+(median over repeats, each repeat averaging several calls via timeit) with the targets, then
+a second table: the 3D fit's own Levenberg-Marquardt against ``scipy.optimize.least_squares``
+on the same whitened residuals, from the same starts, timed in the same run (the reason the
+own solver is kept, docs/design.md 6.2).
 """
 
 from __future__ import annotations
@@ -19,12 +22,26 @@ import numpy as np
 # (git worktrees share one virtual environment).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from scipy.optimize import least_squares  # noqa: E402
+
 from tactile_gym.estimation import (  # noqa: E402
     AxisPrior,
     JointAxisEstimator,
     fit_axis_3d,
     fit_axis_planar,
 )
+from tactile_gym.estimation.axis import isotropic_edge_covs  # noqa: E402
+from tactile_gym.estimation.general import (  # noqa: E402
+    linear_init,
+    linearise,
+    refine_general,
+    solve_general,
+    whiten,
+    whitening_scale_only,
+)
+from tactile_gym.estimation.problem import Noise, Problem  # noqa: E402
+from tactile_gym.estimation.robust import split_loss  # noqa: E402
+from tactile_gym.spatial import orient_edges  # noqa: E402
 
 SIGMA_X = 1e-3  # m
 SIGMA_E = math.radians(1.0)  # rad, total RMS angle error of an edge
@@ -132,6 +149,103 @@ def _stream_us(pts: np.ndarray, eds: np.ndarray, first: int) -> tuple[float, flo
     return statistics.median(means) * 1e6, statistics.median(worst) * 1e6
 
 
+def _problem(pts: np.ndarray, eds: np.ndarray, loss: str) -> Problem:
+    """The 3D fit's problem of measurements with the benchmark's stds, edges oriented."""
+    e = orient_edges(eds)
+    noise = Noise(np.full(len(pts), SIGMA_X), isotropic_edge_covs(e, np.full(len(e), SIGMA_E)))
+    return Problem(pts, e, np.ones(len(pts)), noise, loss, None)
+
+
+def _solve_scipy(prob: Problem, wh: np.ndarray, u, p, k, c, f_scale: float):
+    """The general model solved by scipy's least_squares on the residuals and Jacobian of
+    ``linearise``, over fixed-basis parameters about the start: u turned by (a, b) in the
+    start's normal basis, the line's point moved by (s1, s2) in it, (k, c) shifted."""
+    b1, b2 = linearise(prob, wh, u, p, k, c, jacobian=False)[2:]
+    q0 = p - (p @ u) * u
+
+    def unpack(t):
+        v = u + t[0] * b1 + t[1] * b2
+        nv = math.sqrt(float(v @ v))
+        return v / nv, nv, q0 + t[2] * b1 + t[3] * b2, k + t[4], c + t[5]
+
+    def fun(t):
+        un, _, q, kn, cn = unpack(t)
+        return linearise(prob, wh, un, q, kn, cn, jacobian=False)[0]
+
+    def jac(t):
+        un, nv, q, kn, cn = unpack(t)
+        _, jm, c1, c2 = linearise(prob, wh, un, q, kn, cn)
+        # The local angles and offsets of linearise are in the basis (c1, c2) of un.
+        proj = (np.eye(3) - np.outer(un, un)) / nv
+        chain = np.zeros((6, 6))
+        for j, b in enumerate((b1, b2)):
+            du = proj @ b
+            chain[0, j], chain[1, j] = c1 @ du, c2 @ du
+            chain[2, 2 + j], chain[3, 2 + j] = c1 @ b, c2 @ b
+        chain[4, 4] = chain[5, 5] = 1.0
+        return jm @ chain
+
+    t0 = np.zeros(6)
+    if prob.loss == "linear":
+        res = least_squares(fun, t0, jac=jac, method="lm", x_scale="jac", xtol=1e-10, ftol=1e-10)
+    else:
+        res = least_squares(
+            fun,
+            t0,
+            jac=jac,
+            method="trf",
+            # A prior's residuals (after the 2N of the measurements) count by least squares.
+            loss=prob.loss if prob.prior is None else split_loss(prob.loss, 2 * prob.n),
+            f_scale=f_scale,
+            x_scale="jac",
+            xtol=1e-10,
+            ftol=1e-10,
+        )
+    un, _, q, kn, cn = unpack(res.x)
+    return un, q - (q @ un) * un, kn, cn, res.nfev
+
+
+def _axis_gap(a, b) -> tuple[float, float]:
+    """(distance of b's line from a's point, m; angle between the directions, rad)."""
+    (ua, pa), (ub, pb) = a[:2], b[:2]
+    w = pa - pb
+    off = np.linalg.norm(w - (w @ ub) * ub)
+    return float(off), math.atan2(float(np.linalg.norm(np.cross(ua, ub))), abs(float(ua @ ub)))
+
+
+def solver_rows(
+    rng: np.random.Generator, n: int = 16
+) -> list[tuple[str, float, float, float, float]]:
+    """(case, own us, scipy us, position gap m, angle gap rad) of the general model's solver.
+
+    Cases: a cold solve (the closed-form start, as after a consensus) and a warm one (the
+    previous solution on N - 1 measurements as the start, as in an online update).
+    """
+    pts, eds = _measurements(rng, n)
+    out = []
+    for loss in ("linear", "soft_l1"):
+        f_scale = 2.0
+        prev = _problem(pts[:-1], eds[:-1], loss)
+        init = linear_init(prev, whitening_scale_only(prev))
+        u, p, k, c, _ = refine_general(prev, *init, whiten(prev, *init[:2]))
+        prob = _problem(pts, eds, loss)
+        cold = linear_init(prob, whitening_scale_only(prob))
+        shift = prev.centre - prob.centre
+        p_warm = p + shift - ((p + shift) @ u) * u
+        for case, start in (("cold", cold), ("warm", (u, p_warm, k, c))):
+            wh = whiten(prob, *start[:2])
+            own = solve_general(prob, wh, *start, f_scale)
+            sci = _solve_scipy(prob, wh, *start, f_scale)
+            args = (prob, wh, *start, f_scale)
+            own_us = _per_call_us(lambda a=args: solve_general(*a), 20)
+            sci_us = _per_call_us(lambda a=args: _solve_scipy(*a), 20)
+            pos, ang = _axis_gap(own, sci)
+            out.append(
+                (f"N={n} loss={loss} {case} (scipy nfev {sci[4]})", own_us, sci_us, pos, ang)
+            )
+    return out
+
+
 def main() -> None:
     rng = np.random.default_rng(0)
     rows: list[tuple[str, float | None, float, str]] = []
@@ -220,6 +334,15 @@ def main() -> None:
         else:
             verdict, tgt = ("pass" if us <= target else "miss"), f"{target:.0f}"
         print(f"| {name} | {us:.1f} | {tgt} | {verdict} |")
+
+    print()
+    print("| general-model solve | own LM us | scipy us | scipy / own | gap mm | gap deg |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: |")
+    for case, own_us, sci_us, pos, ang in solver_rows(rng):
+        print(
+            f"| {case} | {own_us:.0f} | {sci_us:.0f} | {sci_us / own_us:.1f} | "
+            f"{pos * 1e3:.2e} | {math.degrees(ang):.2e} |"
+        )
 
 
 if __name__ == "__main__":

@@ -20,14 +20,10 @@ edge), e.g. ``var_in g g^T + var_out n n^T`` for a skin normal n and ``g = n x e
 
 from tactile_gym.estimation.axis import COVARIANCE_LAYOUT, AxisEstimate
 from tactile_gym.estimation.fit3d import fit_axis_3d
-from tactile_gym.estimation.fits import (
-    edge_rotation_variance,
-    fit_axis_planar,
-    fit_axis_simple,
-    planar_residual_variance,
-)
+from tactile_gym.estimation.fits import fit_axis_planar, fit_axis_simple
 from tactile_gym.estimation.metrics import axis_error, axis_nees
 from tactile_gym.estimation.online import JointAxisEstimator
+from tactile_gym.estimation.planar import edge_rotation_variance, planar_residual_variance
 from tactile_gym.estimation.prior import AxisPrior
 from tactile_gym.estimation.robust import LOSSES
 

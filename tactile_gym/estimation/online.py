@@ -7,12 +7,12 @@ contact-point std per axis (m), ``edge_std`` the edge's total RMS angle error (r
 ``edge_cov`` optionally its full covariance (rad^2), as for
 :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`.
 
-Weighting (docs/design.md 6.3: the fit is badly conditioned over small rotations). Each
-measurement is weighted by the inverse of its predicted residual variance; in the planar
-mode ``point_std^2 + lever^2 var_z``, where ``var_z`` is the variance of the edge's rotation
-about z and the lever the distance along the edge from the contact point to the foot of
-the perpendicular from the axis. The lever needs an axis: the previous estimate provides
-it (two passes when there is none yet).
+The estimator validates and stores the measurements, tracks whether they identify the axis,
+and refits through one :class:`~tactile_gym.estimation.interface.AxisFit`
+(:class:`~tactile_gym.estimation.fits.PlanarFit` or
+:class:`~tactile_gym.estimation.fit3d.Fit3D`), warm-started from its last solution where it
+can (docs/design.md 6.8). Each measurement is weighted by the inverse of its predicted
+residual variance (docs/design.md 6.3: the fit is badly conditioned over small rotations).
 """
 
 from __future__ import annotations
@@ -21,21 +21,10 @@ import math
 
 import numpy as np
 
-from tactile_gym.estimation.axis import (
-    AxisEstimate,
-    as_edge_covs,
-    degenerate_estimate,
-    isotropic_edge_covs,
-)
-from tactile_gym.estimation.fit3d import _fit_state, _Noise, _update_state
-from tactile_gym.estimation.fits import (
-    _isotropic_rotation_variance,
-    _planar_fit,
-    _robust_planar,
-    _Rows,
-    edge_rotation_variance,
-    planar_residual_variance,
-)
+from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs
+from tactile_gym.estimation.fit3d import Fit3D
+from tactile_gym.estimation.fits import PlanarFit
+from tactile_gym.estimation.interface import Measurements
 from tactile_gym.estimation.prior import AxisPrior, check_prior
 from tactile_gym.estimation.robust import check_loss
 from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
@@ -47,11 +36,6 @@ MODES = ("planar", "3d")
 # Edge directions closer than this (or 3 edge stds) count as the same direction when
 # checking identifiability, rad.
 _DISTINCT_TOL = math.radians(0.5)
-
-# With a robust loss, both modes redo the full fit (consensus included) once the number of
-# measurements has grown by this factor since the last full fit; in between they refit
-# warm-started from the previous solution.
-_FULL_REFIT_GROWTH = 1.25
 
 
 class JointAxisEstimator:
@@ -77,10 +61,9 @@ class JointAxisEstimator:
     ``min_measurements`` and the distinct directions do not apply. The planar mode uses
     the prior's pin (x-y) only: its axis is vertical by assumption.
 
-    Both modes use ``loss``: with ``"linear"`` the planar mode is a weighted linear
-    least-squares fit, refitted once per update with the residual variances of the previous
-    estimate; with a robust loss it is :func:`~tactile_gym.estimation.fits.fit_axis_planar`'s
-    robust fit (consensus from 6 measurements on). Results are cached; ``estimate()``
+    Both modes use ``loss``; how each fit uses it and warm-starts is told by
+    :class:`~tactile_gym.estimation.fits.PlanarFit` and
+    :class:`~tactile_gym.estimation.fit3d.Fit3D`. Results are cached; ``estimate()``
     refits only after ``add``.
 
     Args:
@@ -125,18 +108,13 @@ class JointAxisEstimator:
         self._points = np.empty((cap, 3))
         self._edges = np.empty((cap, 3))
         self._point_std = np.empty(cap)
-        self._edge_std = np.empty(cap)
-        # The noise the fits use: planar, the variance of the edge's rotation about z
-        # (rad^2); 3d, the edge covariance (rad^2).
+        # The edge noise as the fit uses it (AxisFit.edge_noise).
         self._edge_noise = np.empty((cap,) if self.mode == "planar" else (cap, 3, 3))
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
         self._cached: AxisEstimate | None = None
         self._stale = True
-        self._last: AxisEstimate | None = None
-        # The last robust solution, for warm starts: 3d mode, a fit3d._Solution; planar
-        # mode, the (theta, sel, sign) of fits._robust_planar.
-        self._state = None
-        self._n_full = 0  # measurements at the last full (consensus) fit
+        fit = PlanarFit if self.mode == "planar" else Fit3D
+        self._fit = fit(self.loss, self.prior)
 
     @property
     def n_measurements(self) -> int:
@@ -157,16 +135,6 @@ class JointAxisEstimator:
     def edges(self) -> np.ndarray:
         """(N, 3) unit edge directions as oriented for the fit (read-only; planar: z = 0)."""
         return self._view(self._edges)
-
-    @property
-    def point_stds(self) -> np.ndarray:
-        """(N,) contact-point stds, m (read-only)."""
-        return self._view(self._point_std)
-
-    @property
-    def edge_stds(self) -> np.ndarray:
-        """(N,) edge stds (total RMS angle errors) as given, rad (read-only)."""
-        return self._view(self._edge_std)
 
     def add(
         self,
@@ -230,18 +198,10 @@ class JointAxisEstimator:
             if cov.shape != (1, 3, 3):
                 raise ValueError(f"edge_cov must have shape (3, 3), got {cov.shape[1:]}")
             cov = as_edge_covs(cov, np.array(el)[None] / length)
+        # From the edge as given, before its z part goes (planar) and it is normalised.
+        noise = self._fit.edge_noise(np.array(el), e.shape[0], se, None if cov is None else cov[0])
         if self.mode == "planar":
-            # From the edge as given, before its z part goes.
-            if cov is None:
-                rho2 = (el[0] * el[0] + el[1] * el[1]) / (length * length)
-                noise = _isotropic_rotation_variance(se, rho2, e.shape[0])
-            else:
-                noise = edge_rotation_variance(e[None], se, cov)[0]
             el[2] = 0.0
-        elif cov is None:
-            noise = isotropic_edge_covs(np.array(el)[None] / length, se)[0]
-        else:
-            noise = cov[0]
         el = [v / norm for v in el]
         if len(xl) == 2:
             xl.append(0.0)
@@ -252,7 +212,6 @@ class JointAxisEstimator:
         # The first edge keeps its sign; later ones follow the best-aligned of the last few.
         self._edges[n] = orient_like(el, self._edges[max(0, n - SIGN_LOOKBACK) : n]) if n else el
         self._point_std[n] = sx
-        self._edge_std[n] = se
         self._edge_noise[n] = noise
         self._n = n + 1
         if len(self._dirs) < 3:
@@ -263,7 +222,7 @@ class JointAxisEstimator:
         self._stale = True
 
     def _grow(self) -> None:
-        for name in ("_points", "_edges", "_point_std", "_edge_std", "_edge_noise"):
+        for name in ("_points", "_edges", "_point_std", "_edge_noise"):
             old = getattr(self, name)
             new = np.empty((2 * old.shape[0],) + old.shape[1:])
             new[: self._n] = old[: self._n]
@@ -276,8 +235,6 @@ class JointAxisEstimator:
             return self._cached
         self._stale = False
         self._cached = self._refit()
-        if self._cached is not None:
-            self._last = self._cached
         return self._cached
 
     def _refit(self) -> AxisEstimate | None:
@@ -287,12 +244,10 @@ class JointAxisEstimator:
             n < self.min_measurements or (self.mode == "planar" and len(self._dirs) < 3)
         ):
             return None
-        if n == 0:
-            return prior.estimate(planar=self.mode == "planar")
-        if self.mode == "planar":
-            est = self._refit_planar()
-        else:
-            est = self._refit_3d()
+        data = Measurements(
+            self._points[:n], self._edges[:n], self._point_std[:n], self._edge_noise[:n]
+        )
+        est = self._fit.refit(data)
         if prior is not None:
             # Flagged if degenerate (the prior keeps the system regular; only overflowing
             # input could), never None.
@@ -302,54 +257,3 @@ class JointAxisEstimator:
         if self.mode == "3d" and len(self._dirs) < 3 and est.method != "3d-parallel":
             return None
         return est
-
-    def _refit_3d(self) -> AxisEstimate:
-        n = self._n
-        est = None
-        x = self._points[:n]
-        noise = _Noise(self._point_std[:n].copy(), self._edge_noise[:n].copy())
-        if self._state is not None and n < self._n_full * _FULL_REFIT_GROWTH:
-            out = _update_state(x, self._edges[:n], noise, self.loss, self._state, self.prior)
-            if out is not None:
-                est, self._state = out
-        if est is None:
-            est, self._state = _fit_state(
-                x.copy(),
-                self._edges[:n].copy(),
-                np.ones(n),
-                noise,
-                self.loss,
-                None,
-                math.radians(1.0),
-                self.prior,
-            )
-            self._n_full = n
-        return est
-
-    def _refit_planar(self) -> AxisEstimate:
-        n = self._n
-        x = self._points[:n]
-        e = self._edges[:n]
-        sx = self._point_std[:n]
-        var_z = self._edge_noise[:n]
-        prior = self.prior
-        if self.loss != "linear":
-            # Warm start from the last solution (no consensus) until the measurements have
-            # grown by _FULL_REFIT_GROWTH; every row of the online data is usable.
-            start = self._state if n < self._n_full * _FULL_REFIT_GROWTH else None
-            rows = _Rows(x, e, None, sx, var_z, prior)
-            est, self._state = _robust_planar(rows, self.loss, None, start)
-            if start is None:
-                self._n_full = n
-            return est
-        prev = self._last
-        passes = 1
-        if prev is None or prev.degenerate:
-            prev = _planar_fit(x, e, None) if prior is None else prior.estimate(planar=True)
-            passes = 2
-        for _ in range(passes):
-            if prev is None or prev.degenerate:
-                return degenerate_estimate("planar", n, planar=True)
-            var = planar_residual_variance(x[:, :2], e[:, :2], prev.point[:2], sx, var_z)
-            prev = _planar_fit(x, e, 1.0 / var, prior)
-        return degenerate_estimate("planar", n, planar=True) if prev is None else prev

@@ -1,9 +1,9 @@
 """A Gaussian prior on the joint axis, known before any touch (e.g. from a reset distribution).
 
-World frame, metres, radians. The prior says where the hinge pin is (a mean point and its
-covariance) and which way the axis points (a mean direction and the RMS angle of the true
-direction from it). The fits fuse it with the measurements as a Gaussian prior (maximum a
-posteriori):
+World frame, metres, radians (docs/design.md 6.6). The prior says where the hinge pin is (a
+mean point and its covariance) and which way the axis points (a mean direction and the RMS
+angle of the true direction from it). The fits fuse it with the measurements as a Gaussian
+prior (maximum a posteriori):
 
 * planar fits: a prior on the axis position (p, q) from the pin's x-y mean and covariance,
   added to the normal equations; the distance d keeps a flat prior;

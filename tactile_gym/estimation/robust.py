@@ -1,8 +1,10 @@
-"""Robust losses, minimal-set consensus and edge-sign decisions shared by the fits.
+"""Robust losses, minimal-set consensus and edge-sign decisions shared by the fits
+(docs/design.md 6.4).
 
 Residuals here are whitened (divided by their predicted standard deviation) or, when no
-noise model is given, in metres. The losses are those of scipy's ``least_squares``: the
-cost of a residual z is ``0.5 f^2 rho((z / f)^2)`` with ``f = f_scale``.
+noise model is given, in metres. The losses are those of scipy's ``least_squares``, defined
+once in :func:`robust_loss`: the cost of a residual z is ``0.5 f^2 rho((z / f)^2)`` with
+``f = f_scale``. Chi-square quantiles come from ``scipy.stats.chi2``.
 """
 
 from __future__ import annotations
@@ -11,21 +13,24 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+from scipy.stats import chi2, norm
 
 __all__ = ["LOSSES"]
 
 LOSSES = ("linear", "soft_l1", "huber", "cauchy")
 """Loss functions accepted by the fits (those of scipy's least_squares)."""
 
-# Chi-square 99 % quantiles: a squared whitened residual beyond them is an outlier.
-CHI2_99 = {1: 6.63, 2: 9.21, 3: 11.34}
+# Chi-square 99 % quantiles by degrees of freedom: a squared whitened residual beyond them
+# is an outlier.
+CHI2_99 = {dof: float(chi2.ppf(0.99, dof)) for dof in (1, 2, 3)}
 
-# Chi-square quantiles at the two-sided 5-sigma probability (5.7e-7): beyond them a
-# squared whitened residual is a gross error, not noise.
-OUTLIER_GATE = {1: 25.0, 2: 28.7, 3: 31.8}
+# Chi-square quantiles at the two-sided 5-sigma probability: beyond them a squared whitened
+# residual is a gross error, not noise.
+_FIVE_SIGMA = 2.0 * float(norm.sf(5.0))
+OUTLIER_GATE = {dof: float(chi2.isf(_FIVE_SIGMA, dof)) for dof in (1, 2, 3)}
 
 # Normalised median absolute deviation: 1.4826 MAD estimates a Gaussian std.
-MAD_TO_STD = 1.4826
+MAD_TO_STD = 1.0 / float(norm.ppf(0.75))
 
 _CONSENSUS_TRIALS = 24
 
@@ -43,17 +48,67 @@ def mad_f_scale(residuals: np.ndarray) -> float:
     return max(2.0 * MAD_TO_STD * float(np.median(np.abs(residuals))), 1e-9)
 
 
+def robust_loss(s: np.ndarray, loss: str, orders: tuple[int, ...] = (0, 1, 2)) -> tuple:
+    """The loss ``rho`` and its first two derivatives at ``s = (z / f_scale)^2``.
+
+    This is the one definition of the losses: the cost, the IRLS weights and the Newton
+    weights below derive from it, and so does the callable loss given to scipy's
+    ``least_squares`` (:func:`split_loss`).
+
+    Args:
+        s: (N,) squared scaled residuals, >= 0.
+        loss: one of ``LOSSES``.
+        orders: which of ``rho`` (0), ``rho'`` (1) and ``rho''`` (2) to compute, in
+            increasing order (the fits' inner loops need only some; each is a few array
+            operations on a few dozen residuals, where the per-call cost dominates).
+
+    Returns:
+        A tuple of (N,) arrays, one per order asked for.
+    """
+    out = []
+    if loss == "soft_l1":
+        t = 1.0 + s
+        root = np.sqrt(t)
+        if 0 in orders:
+            out.append(2.0 * (root - 1.0))
+        if 1 in orders or 2 in orders:
+            w = 1.0 / root
+            if 1 in orders:
+                out.append(w)
+            if 2 in orders:
+                out.append(-0.5 * w * w * w)
+    elif loss == "huber":
+        far = s > 1.0
+        root = np.sqrt(np.where(far, s, 1.0))
+        if 0 in orders:
+            out.append(np.where(far, 2.0 * root - 1.0, s))
+        if 1 in orders:
+            out.append(np.where(far, 1.0 / root, 1.0))
+        if 2 in orders:
+            out.append(np.where(far, -0.5 / (root * root * root), 0.0))
+    elif loss == "cauchy":
+        w = 1.0 / (1.0 + s)
+        if 0 in orders:
+            out.append(np.log1p(s))
+        if 1 in orders:
+            out.append(w)
+        if 2 in orders:
+            out.append(-(w * w))
+    else:
+        if 0 in orders:
+            out.append(s)
+        if 1 in orders:
+            out.append(np.ones_like(s))
+        if 2 in orders:
+            out.append(np.zeros_like(s))
+    return tuple(out)
+
+
 def loss_cost(z: np.ndarray, loss: str, f_scale: float) -> float:
     """scipy's least_squares cost ``0.5 f^2 sum rho((z / f)^2)`` of whitened residuals."""
     if loss == "linear":
         return 0.5 * float(z @ z)
-    s = (z / f_scale) ** 2
-    if loss == "soft_l1":
-        rho = 2.0 * (np.sqrt(1.0 + s) - 1.0)
-    elif loss == "huber":
-        rho = np.where(s <= 1.0, s, 2.0 * np.sqrt(s) - 1.0)
-    else:  # cauchy
-        rho = np.log1p(s)
+    (rho,) = robust_loss((z / f_scale) ** 2, loss, (0,))
     return 0.5 * f_scale * f_scale * float(rho.sum())
 
 
@@ -72,51 +127,30 @@ def split_loss(loss: str, m: int):
     """
 
     def rho(s: np.ndarray) -> np.ndarray:
-        out = np.empty((3, s.size))
-        out[0] = s
-        out[1] = 1.0
-        out[2] = 0.0
-        head = s[:m]
-        if loss == "soft_l1":
-            t = 1.0 + head
-            out[0, :m] = 2.0 * (np.sqrt(t) - 1.0)
-            out[1, :m] = t**-0.5
-            out[2, :m] = -0.5 * t**-1.5
-        elif loss == "huber":
-            far = head > 1.0
-            root = np.sqrt(np.where(far, head, 1.0))
-            out[0, :m] = np.where(far, 2.0 * root - 1.0, head)
-            out[1, :m] = np.where(far, 1.0 / root, 1.0)
-            out[2, :m] = np.where(far, -0.5 / (root * root * root), 0.0)
-        elif loss == "cauchy":
-            out[0, :m] = np.log1p(head)
-            out[1, :m] = 1.0 / (1.0 + head)
-            out[2, :m] = -(out[1, :m] ** 2)
+        out = np.array(robust_loss(s, "linear"))
+        out[:, :m] = robust_loss(s[:m], loss)
         return out
 
     return rho
 
 
 def robust_weights(r: np.ndarray, loss: str, f_scale: float, curvature: bool = False):
-    """IRLS weights rho'(s), s = (r / f_scale)^2, of scipy's losses.
+    """IRLS weights ``rho'(s)``, ``s = (r / f_scale)^2``, of :func:`robust_loss`.
 
-    With ``curvature`` also the weights of the Newton matrix, the second derivative of
-    ``0.5 rho(s)`` in r: ``rho' + 2 s rho''``, clipped to at least ``0.05 rho'`` (Cauchy's
-    is negative far out).
+    With ``curvature`` also the weights of the Newton matrix, the second derivative of the
+    cost ``0.5 f_scale^2 rho(s)`` in r: ``rho' + 2 s rho''``, clipped to at least
+    ``0.05 rho'`` where it can vanish (Huber's is 0 and Cauchy's negative far out), so
+    that every residual keeps some curvature in the Gauss-Newton matrix.
     """
     s = (r / f_scale) ** 2
+    if not curvature:
+        return robust_loss(s, loss, (1,))[0]
+    d1, d2 = robust_loss(s, loss, (1, 2))
+    newton = d1 + 2.0 * s * d2
     if loss == "soft_l1":
-        w = 1.0 / np.sqrt(1.0 + s)
-        return (w, w * w * w) if curvature else w
-    if loss == "huber":
-        out = s > 1.0
-        w = np.where(out, 1.0 / np.sqrt(np.maximum(s, 1.0)), 1.0)
-        return (w, np.where(out, 0.05 * w, 1.0)) if curvature else w
-    if loss == "cauchy":
-        w = 1.0 / (1.0 + s)
-        return (w, np.maximum((1.0 - s) * w * w, 0.05 * w)) if curvature else w
-    w = np.ones_like(r)
-    return (w, w) if curvature else w
+        # Positive everywhere: its cost is strictly convex in r.
+        return d1, newton
+    return d1, np.maximum(newton, 0.05 * d1)
 
 
 def sign_flips(keep: np.ndarray, flipped: np.ndarray, dof: int) -> np.ndarray:
@@ -205,7 +239,7 @@ def consensus(
 
 
 # Medians of chi-square variables by degrees of freedom.
-_CHI2_MEDIAN = {1: 0.455, 2: 1.386}
+_CHI2_MEDIAN = {dof: float(chi2.median(dof)) for dof in (1, 2)}
 
 
 def _lmeds_variance(sq_norms: np.ndarray, dof: int) -> float:
