@@ -287,6 +287,7 @@ def run_press(
     press: PressController,
     read: Callable[[], np.ndarray],
     move: Callable[[float], object],
+    limit: int = 1000,
 ) -> PressController:
     """Drive a press to its end on a fingertip that a script moves directly.
 
@@ -295,12 +296,17 @@ def run_press(
         read: returns the latest reading (see ``PressController.step``).
         move: moves the fingertip by the given distance along the press direction, m (0:
             holds it still) and waits for the next reading (one control step).
+        limit: most readings to take.
 
     Returns:
         ``press``, over.
+
+    Raises:
+        RuntimeError: the press did not end within ``limit`` readings.
     """
-    while True:
+    for _ in range(limit):
         step = press.step(read())
         if step is None:
             return press
         move(step)
+    raise RuntimeError(f"the press did not end within {limit} readings (phase {press.phase!r})")
