@@ -69,20 +69,14 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_gym.envs.plotting import draw_estimate, draw_measurements
 from tactile_gym.estimation import fit_axis_planar, fit_axis_simple
 from tactile_gym.presets import load_preset, preset_names
 from tactile_gym.sensing import PressConfig, PressController, Touch, TouchSensor, run_press
 from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
 from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
 
-#: Table I of the paper: mean joint-position error, mm.
-PAPER_TABLE = {
-    ("slides", "proposed"): 6.0,
-    ("slides", "simple"): 27.7,
-    ("fixed", "proposed"): 7.1,
-    ("fixed", "simple"): 5.9,
-}
+from .paper_report import markdown_table, plot
+
 #: Measurement schemes: (number of measurements, turn between them in rad).
 SCHEMES = {"paper": (4, math.radians(30.0)), "wide": (7, math.radians(20.0))}
 CASES = ("slides", "fixed")
@@ -550,74 +544,6 @@ def reproduce(
     return results
 
 
-def _stats(errors: list[float]) -> str:
-    e = np.asarray(errors, dtype=float)
-    ok = e[np.isfinite(e)]
-    if not len(ok):
-        return "failed"
-    text = f"{ok.mean():.1f} / {np.median(ok):.1f} / {np.percentile(ok, 90):.1f}"
-    return text if len(ok) == len(e) else f"{text} ({len(e) - len(ok)} failed)"
-
-
-def markdown_table(results: dict, trials: int, seeds: int) -> str:
-    """Table I in markdown: mean / median / P90 error per cell, mm, with the paper's means."""
-    lines = [
-        f"Joint-position error |(p, q)_est - (p, q)_true| in mm, {seeds} seed(s) x {trials} "
-        "trials per cell (mean / median / P90); paper = Table I mean.",
-        "",
-        "| condition | measurements | contact | proposed | paper | simple | paper |"
-        " simple / proposed (means) | presses per measurement |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for key, cell in results.items():
-        condition, scheme, case = key if len(key) == 3 else ("nominal", *key)
-        n, step = SCHEMES[scheme]
-        prop, simp = np.array(cell["proposed_mm"]), np.array(cell["simple_mm"])
-        paper = scheme == "paper" and condition == "nominal"
-        presses = np.mean([t.presses.mean() for t in cell["trials"]])
-        lines.append(
-            f"| {condition} | {n} x {math.degrees(step):.0f} deg | {case} | {_stats(prop)} |"
-            f" {PAPER_TABLE[(case, 'proposed')] if paper else '-'} | {_stats(simp)} |"
-            f" {PAPER_TABLE[(case, 'simple')] if paper else '-'} |"
-            f" {np.nanmean(simp) / np.nanmean(prop):.1f}x | {presses:.1f} |"
-        )
-    return "\n".join(lines)
-
-
-def plot(results: dict, truth: np.ndarray, out: Path) -> list[Path]:
-    """Fig. 12/13-style top views, one PNG per contact case of the paper scheme.
-
-    Args:
-        results: as ``reproduce`` returns, with the nominal paper cells.
-        truth: (2,) true (p, q), world, m.
-        out: folder for the PNGs.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    paths = []
-    for case, title in (("slides", "contact points move"), ("fixed", "contact points fixed")):
-        runs = results[("paper", case)]["trials"]
-        fig, axes = plt.subplots(1, 2, figsize=(9, 4.5), sharex=True, sharey=True)
-        for ax, method in zip(axes, ("proposed", "simple")):
-            for t in runs:
-                draw_measurements(ax, t.points, t.edges)
-                draw_estimate(ax, np.r_[truth, 0.0], np.r_[getattr(t, method), 0.0])
-            ax.set_title(f"{method} method")
-            ax.set_xlabel("x [mm]")
-            ax.set_aspect("equal")
-        axes[0].set_ylabel("y [mm]")
-        fig.suptitle(f"Estimated joint position, {title} (blue: truth, red: estimates)")
-        fig.tight_layout()
-        path = out / f"fig_{case}.png"
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
-        paths.append(path)
-    return paths
-
-
 def true_joint_position(condition: str = "nominal") -> np.ndarray:
     """The true (p, q) of a condition's scene, world x-y, m (for the plots)."""
     return np.asarray(condition_object(condition).joint_position[:2])
@@ -659,7 +585,7 @@ def main(argv: list[str] | None = None) -> dict:
     seeds = tuple(range(args.seed, args.seed + args.seeds))
     t0 = time.perf_counter()
     results = reproduce(args.trials, seeds, ("nominal", *variants), schemes)
-    table = markdown_table(results, args.trials, len(seeds))
+    table = markdown_table(results, args.trials, len(seeds), SCHEMES)
     print(table)
     print(f"({time.perf_counter() - t0:.0f} s)")
     summary = {
