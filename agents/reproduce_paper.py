@@ -15,12 +15,13 @@ near (17, 105) mm, the grip pointing toward +x, 20 mm wide, 8 mm thick, its -y e
 and the commanded turn of the hand. The grip's true start angle is drawn in +-10 deg per
 trial and never told. Everything the finger does follows from F/T readings:
 
-* **Press** (:func:`press`): a pure press, straight down (world -z) at a chosen point, until
-  the *noisy* reading reaches 5 N; then the finger holds still and averages readings (a
-  filtered F/T reading) and :func:`~tactile_gym.sensing.estimate_contact` turns the mean into
-  the indentation-corrected contact point, the skin normal and the edge direction, with the
-  noise std divided by sqrt(n). If the finger sinks ``MISS_DEPTH`` below the grip's nominal
-  top without touching, there is no grip under it.
+* **Press** (:func:`press`): the shared press (``tactile_gym.sensing.PressController``, the
+  env's too), straight down (world -z) at a chosen point, until the *noisy* reading reaches
+  5 N; then the finger holds still and averages readings (a filtered F/T reading), and the
+  env's ``TouchSensor`` reads the mean: the indentation-corrected contact point, the skin
+  normal and the edge direction, with the noise std divided by sqrt(n) and the env's
+  contact shape (``docs/design.md`` 4.5). If the finger sinks ``MISS_DEPTH`` below the grip's
+  nominal top without touching, there is no grip under it.
 * **Edge search** (:func:`find_edge`): presses along a line across the edge. A press whose
   patch the edge truncates shifts the contact toward the face's interior (the skin normal
   leans that way) and tilts the force off the normal; a press on the open face puts the
@@ -62,37 +63,31 @@ import argparse
 import json
 import math
 import time
-from dataclasses import dataclass, replace
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from tactile_gym.envs.plotting import draw_estimate, draw_measurements
 from tactile_gym.estimation import fit_axis_planar, fit_axis_simple
 from tactile_gym.presets import load_preset, preset_names
-from tactile_gym.sensing import ContactEstimate, estimate_contact
+from tactile_gym.sensing import PressConfig, PressController, Touch, TouchSensor, run_press
 from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
 from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
 
-#: Table I of the paper: mean joint-position error, mm.
-PAPER_TABLE = {
-    ("slides", "proposed"): 6.0,
-    ("slides", "simple"): 27.7,
-    ("fixed", "proposed"): 7.1,
-    ("fixed", "simple"): 5.9,
-}
+from .paper_report import markdown_table, plot
+
 #: Measurement schemes: (number of measurements, turn between them in rad).
 SCHEMES = {"paper": (4, math.radians(30.0)), "wide": (7, math.radians(20.0))}
 CASES = ("slides", "fixed")
 
-PRESS_FORCE = 5.0  # N, the paper's press
-TOUCH_FORCE = 0.3  # N, |f| reading that counts as touching (15 sigma of the default noise)
-APPROACH_STEP = 0.0003  # m per control step, descent before touching
-MIN_PRESS_STEP = 0.00002  # m per control step, smallest descent while pressing
-PRESS_GAIN = 0.6  # of the step a secant stiffness predicts to reach PRESS_FORCE
 TRAVEL_CLEARANCE = 0.0015  # m, sphere bottom over the grip's nominal top while travelling
 MISS_DEPTH = 0.004  # m below the nominal top with no touch: no grip under the finger
 SEARCH_READINGS = 4  # readings averaged for a search press (0.2 s at 20 Hz)
+#: The press of the searches: the shared press to its 5 N (the paper's) on the noisy reading,
+#: in steps of at most 0.3 mm; no touch from the travel height to ``MISS_DEPTH`` below the
+#: grip's top means no grip under the finger.
+PRESS = PressConfig(max_step=0.0003, dwell=SEARCH_READINGS, reach=TRAVEL_CLEARANCE + MISS_DEPTH)
 MEASURE_READINGS = 20  # readings averaged for the measurement press (1 s at 20 Hz)
 CENTRE_PAST_CONTACT = 0.0026  # m, sphere centre beyond the contact: ~1 mm past the edge
 SEARCH_GAIN = 1.5  # the contact moves ~0.4 mm per mm of finger near the edge: 1 / (1 - 0.4)
@@ -178,27 +173,43 @@ class NominalLayout:
         return start, outward
 
 
-@dataclass(frozen=True)
-class Touch:
+@dataclass
+class Pressed:
     """What one press told, world frame.
 
     Attributes:
         centre: (3,) sphere centre while pressed, m.
-        touched: whether the finger met the grip above ``MISS_DEPTH`` below its top.
-        contact: the estimate from the averaged wrench (sensor frame); None without touch.
-        point: (3,) indentation-corrected contact point, m; NaN without a valid contact.
-        edge: (3,) unit edge direction; NaN when the press shows no edge.
-        wrench: (6,) the averaged reading, sensor frame, N and N m.
-        readings: how many readings were averaged.
+        press: the shared press (it holds the readings averaged so far).
+        touch: the reading of the averaged wrench (``TouchSensor.sense``); None when the
+            finger met nothing above ``MISS_DEPTH`` below the grip's top.
     """
 
     centre: np.ndarray
-    touched: bool
-    contact: ContactEstimate | None
-    point: np.ndarray
-    edge: np.ndarray
-    wrench: np.ndarray
-    readings: int
+    press: PressController
+    touch: Touch | None
+
+    @property
+    def touched(self) -> bool:
+        return self.touch is not None
+
+    @property
+    def readings(self) -> int:
+        return self.press.readings
+
+    @property
+    def wrench(self) -> np.ndarray:
+        """(6,) the averaged reading, sensor frame, N and N m."""
+        return self.press.mean
+
+    @property
+    def point(self) -> np.ndarray:
+        """(3,) indentation-corrected contact point, m; NaN without a valid contact."""
+        return self.touch.point if self.touched else np.full(3, np.nan)
+
+    @property
+    def edge(self) -> np.ndarray:
+        """(3,) unit edge direction, oriented physically; NaN when the press shows none."""
+        return self.touch.edge if self.touched else np.full(3, np.nan)
 
 
 @dataclass
@@ -255,101 +266,63 @@ def lift(scene: ProbeScene, nominal: NominalLayout) -> None:
     _move(scene, np.r_[centre[:2], _travel_height(scene, nominal)])
 
 
-def _read(scene: ProbeScene, rng: np.random.Generator, n: int) -> np.ndarray:
-    """Mean of ``n`` readings taken while holding still, one per control step."""
-    position = scene.fingertip_position
-    total = np.zeros(6)
-    for _ in range(n):
-        scene.control_step(position, DOWN)
-        total += scene.read_wrench(rng)
-    return total / n
+def _hold_or_lower(scene: ProbeScene, pressed: Pressed) -> Callable[[float], object]:
+    """The press's moves for the finger pointing down: lower the sphere centre by a step."""
+
+    def move(step: float) -> None:
+        pressed.centre = pressed.centre - np.array([0.0, 0.0, step])
+        scene.control_step(_sensor_position(scene, pressed.centre), DOWN)
+
+    return move
 
 
-def _interpret(
-    scene: ProbeScene, wrench: np.ndarray, n: int
-) -> tuple[ContactEstimate, np.ndarray, np.ndarray]:
-    """Contact estimate from a mean of ``n`` readings, and its point and edge in world."""
-    sensor = scene.sensor_config
-    contact = estimate_contact(
-        wrench[:3],
-        wrench[3:],
-        scene.geometry,
-        force_noise_std=sensor.force_noise_std / math.sqrt(n),
-        moment_noise_std=sensor.moment_noise_std / math.sqrt(n),
-        skin_stiffness=scene.skin_config.normal_stiffness,
-    )
-    if not contact.valid:
-        return contact, np.full(3, np.nan), np.full(3, np.nan)
-    return (
-        contact,
-        scene.sensor_to_world_point(contact.corrected_point),
-        scene.sensor_to_world_vector(contact.edge_direction),
-    )
+def _read_pressed(scene: ProbeScene, pressed: Pressed, rng: np.random.Generator) -> Pressed:
+    """Run the press to its end and read what it averaged (``TouchSensor.sense``)."""
+    run_press(pressed.press, lambda: scene.read_wrench(rng), _hold_or_lower(scene, pressed))
+    if pressed.press.phase == "done":
+        sensor = TouchSensor(
+            scene.geometry, scene.sensor_config, scene.skin_config.normal_stiffness
+        )
+        pressed.touch = sensor.sense(
+            pressed.press.mean,
+            scene.fingertip_rotation,
+            scene.fingertip_position,
+            pressed.press.readings,
+        )
+    return pressed
 
 
 def press(
-    scene: ProbeScene,
-    xy: np.ndarray,
-    nominal: NominalLayout,
-    rng: np.random.Generator,
-    readings: int = SEARCH_READINGS,
-) -> Touch:
-    """Press straight down at world x-y ``xy`` to PRESS_FORCE on the noisy reading.
+    scene: ProbeScene, xy: np.ndarray, nominal: NominalLayout, rng: np.random.Generator
+) -> Pressed:
+    """Press straight down at world x-y ``xy`` with the shared press (``PRESS``).
 
-    The finger travels at the travel height to above ``xy``, descends (``APPROACH_STEP`` per
-    control step) until the reading shows a touch, then presses on with steps a secant
-    estimate of the contact stiffness sizes, and stops at the first reading of at least
-    PRESS_FORCE. It never moves sideways once it touches. It stays pressed on return (the
-    caller may read more, then ``lift``); after a miss it is already lifted.
+    The finger travels at the travel height to above ``xy`` and presses down until the noisy
+    reading shows the press's force, then holds still for ``SEARCH_READINGS`` readings. It
+    never moves sideways once it touches. It stays pressed on return (``read_on`` reads
+    more, then ``lift``); after a miss it is already lifted.
 
     Args:
         scene: the scene.
         xy: (2,) where to press, world, m.
         nominal: the nominal layout (the grip's top height).
         rng: the noise of the readings.
-        readings: how many readings to average once pressed.
     """
     lift(scene, nominal)
     centre = np.r_[np.asarray(xy, dtype=float), _travel_height(scene, nominal)]
     _move(scene, centre)
-    radius = scene.geometry.outer_radius
-    floor = nominal.thickness - MISS_DEPTH + radius
-    force_before = step_before = None
-    for _ in range(400):
-        force = float(np.linalg.norm(scene.read_wrench(rng)[:3]))
-        if force >= PRESS_FORCE:
-            break
-        if force < TOUCH_FORCE:
-            if centre[2] < floor:
-                lift(scene, nominal)
-                nan = np.full(3, np.nan)
-                return Touch(centre, False, None, nan, nan, np.zeros(6), 0)
-            step = APPROACH_STEP
-        elif force_before is None or force <= force_before:
-            step = MIN_PRESS_STEP
-        else:
-            stiffness = (force - force_before) / step_before
-            step = PRESS_GAIN * (PRESS_FORCE - force) / stiffness
-            step = min(max(step, MIN_PRESS_STEP), APPROACH_STEP)
-        force_before = force if force >= TOUCH_FORCE else None
-        step_before = step
-        centre = centre - np.array([0.0, 0.0, step])
-        scene.control_step(_sensor_position(scene, centre), DOWN)
-    else:
-        raise RuntimeError(f"the press at {xy} m did not reach {PRESS_FORCE} N")
-    wrench = _read(scene, rng, readings)
-    contact, point, edge = _interpret(scene, wrench, readings)
-    return Touch(centre, True, contact, point, edge, wrench, readings)
+    pressed = _read_pressed(scene, Pressed(centre, PressController(PRESS), None), rng)
+    if not pressed.touched:
+        lift(scene, nominal)
+    return pressed
 
 
-def read_on(scene: ProbeScene, touch: Touch, rng: np.random.Generator, total: int) -> Touch:
+def read_on(scene: ProbeScene, pressed: Pressed, rng: np.random.Generator, total: int) -> Pressed:
     """Hold a press still and read on until ``total`` readings are averaged in all."""
-    extra = total - touch.readings
-    if extra <= 0 or not touch.touched:
-        return touch
-    wrench = (touch.readings * touch.wrench + extra * _read(scene, rng, extra)) / total
-    contact, point, edge = _interpret(scene, wrench, total)
-    return replace(touch, wrench=wrench, contact=contact, point=point, edge=edge, readings=total)
+    if total <= pressed.readings or not pressed.touched:
+        return pressed
+    pressed.press.extend(total - pressed.readings)
+    return _read_pressed(scene, pressed, rng)
 
 
 def _across(edge: np.ndarray, outward: np.ndarray) -> np.ndarray:
@@ -368,7 +341,7 @@ def find_edge(
     outward: np.ndarray,
     nominal: NominalLayout,
     rng: np.random.Generator,
-) -> tuple[Touch, np.ndarray, int]:
+) -> tuple[Pressed, np.ndarray, int]:
     """Find the probed edge by touch and measure there.
 
     Presses along a line across the edge, starting at ``start``, until a press sits about
@@ -389,12 +362,12 @@ def find_edge(
     outward = np.asarray(outward, dtype=float)
     misses, anchor = 0, xy
     for k in range(1, MAX_PRESSES + 1):
-        touch = press(scene, xy, nominal, rng)
-        if touch.touched and touch.contact.valid:
+        pressed = press(scene, xy, nominal, rng)
+        if pressed.touched and pressed.touch.valid:
             misses = 0
-            if touch.contact.edge_std < TRUSTED_EDGE_STD:
-                outward = _across(touch.edge[:2], outward)
-            step = SEARCH_GAIN * ((touch.point[:2] - xy) @ outward + CENTRE_PAST_CONTACT)
+            if pressed.touch.edge_std < TRUSTED_EDGE_STD:
+                outward = _across(pressed.edge[:2], outward)
+            step = SEARCH_GAIN * ((pressed.point[:2] - xy) @ outward + CENTRE_PAST_CONTACT)
             if abs(step) < CONVERGED_STEP or k == MAX_PRESSES:
                 break
             xy = xy + step * outward
@@ -405,7 +378,7 @@ def find_edge(
                 anchor = xy
             misses += 1
             xy = anchor + MISS_STEP * ((misses + 1) // 2) * (-1) ** misses * outward
-    return read_on(scene, touch, rng, MEASURE_READINGS), outward, k
+    return read_on(scene, pressed, rng, MEASURE_READINGS), outward, k
 
 
 # --- the hand (reads the truth) ----------------------------------------------------------
@@ -495,10 +468,10 @@ def run_trial(
                     start = centre
             else:
                 start = _sphere_centre(scene)[:2]
-        touch, outward, k = find_edge(scene, start, outward, nominal, rng)
-        points.append(touch.point)
-        edges.append(touch.edge)
-        centres.append(touch.centre)
+        pressed, outward, k = find_edge(scene, start, outward, nominal, rng)
+        points.append(pressed.point)
+        edges.append(pressed.edge)
+        centres.append(pressed.centre)
         presses.append(k)
     lift(scene, nominal)
     points, edges = np.array(points), np.array(edges)
@@ -571,74 +544,6 @@ def reproduce(
     return results
 
 
-def _stats(errors: list[float]) -> str:
-    e = np.asarray(errors, dtype=float)
-    ok = e[np.isfinite(e)]
-    if not len(ok):
-        return "failed"
-    text = f"{ok.mean():.1f} / {np.median(ok):.1f} / {np.percentile(ok, 90):.1f}"
-    return text if len(ok) == len(e) else f"{text} ({len(e) - len(ok)} failed)"
-
-
-def markdown_table(results: dict, trials: int, seeds: int) -> str:
-    """Table I in markdown: mean / median / P90 error per cell, mm, with the paper's means."""
-    lines = [
-        f"Joint-position error |(p, q)_est - (p, q)_true| in mm, {seeds} seed(s) x {trials} "
-        "trials per cell (mean / median / P90); paper = Table I mean.",
-        "",
-        "| condition | measurements | contact | proposed | paper | simple | paper |"
-        " simple / proposed (means) | presses per measurement |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for key, cell in results.items():
-        condition, scheme, case = key if len(key) == 3 else ("nominal", *key)
-        n, step = SCHEMES[scheme]
-        prop, simp = np.array(cell["proposed_mm"]), np.array(cell["simple_mm"])
-        paper = scheme == "paper" and condition == "nominal"
-        presses = np.mean([t.presses.mean() for t in cell["trials"]])
-        lines.append(
-            f"| {condition} | {n} x {math.degrees(step):.0f} deg | {case} | {_stats(prop)} |"
-            f" {PAPER_TABLE[(case, 'proposed')] if paper else '-'} | {_stats(simp)} |"
-            f" {PAPER_TABLE[(case, 'simple')] if paper else '-'} |"
-            f" {np.nanmean(simp) / np.nanmean(prop):.1f}x | {presses:.1f} |"
-        )
-    return "\n".join(lines)
-
-
-def plot(results: dict, truth: np.ndarray, out: Path) -> list[Path]:
-    """Fig. 12/13-style top views, one PNG per contact case of the paper scheme.
-
-    Args:
-        results: as ``reproduce`` returns, with the nominal paper cells.
-        truth: (2,) true (p, q), world, m.
-        out: folder for the PNGs.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    paths = []
-    for case, title in (("slides", "contact points move"), ("fixed", "contact points fixed")):
-        runs = results[("paper", case)]["trials"]
-        fig, axes = plt.subplots(1, 2, figsize=(9, 4.5), sharex=True, sharey=True)
-        for ax, method in zip(axes, ("proposed", "simple")):
-            for t in runs:
-                draw_measurements(ax, t.points, t.edges)
-                draw_estimate(ax, np.r_[truth, 0.0], np.r_[getattr(t, method), 0.0])
-            ax.set_title(f"{method} method")
-            ax.set_xlabel("x [mm]")
-            ax.set_aspect("equal")
-        axes[0].set_ylabel("y [mm]")
-        fig.suptitle(f"Estimated joint position, {title} (blue: truth, red: estimates)")
-        fig.tight_layout()
-        path = out / f"fig_{case}.png"
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
-        paths.append(path)
-    return paths
-
-
 def true_joint_position(condition: str = "nominal") -> np.ndarray:
     """The true (p, q) of a condition's scene, world x-y, m (for the plots)."""
     return np.asarray(condition_object(condition).joint_position[:2])
@@ -680,7 +585,7 @@ def main(argv: list[str] | None = None) -> dict:
     seeds = tuple(range(args.seed, args.seed + args.seeds))
     t0 = time.perf_counter()
     results = reproduce(args.trials, seeds, ("nominal", *variants), schemes)
-    table = markdown_table(results, args.trials, len(seeds))
+    table = markdown_table(results, args.trials, len(seeds), SCHEMES)
     print(table)
     print(f"({time.perf_counter() - t0:.0f} s)")
     summary = {

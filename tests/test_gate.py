@@ -11,31 +11,32 @@ import pytest
 
 import tactile_gym  # noqa: F401 - registers the envs
 from tactile_gym.envs.gate import GateConfig
+from tactile_gym.sensing import PressConfig, PressController
 
 DOWN = np.array([0.0, 0.0, -1.0])
 
 
 def make(**scenario):
     env = gym.make("tactile_gym/HingeProbe-v1", randomize=False, scenario=scenario)
-    env.reset(seed=0)
-    return env, env.unwrapped
+    obs, _ = env.reset(seed=0)
+    return env, env.unwrapped, obs
 
 
 ZERO = np.zeros(3)
 
 
-def press(env, target=5.0, sideways=ZERO, hold=6, turn=ZERO):
-    """Move down (plus ``sideways`` per step, m) until |f| ~ target, then hold (optionally
-    turning by ``turn`` per step, rad); return the new measurements."""
+def press(env, obs, target=5.0, sideways=ZERO, hold=6, turn=ZERO):
+    """The shared press down (plus ``sideways`` per step, m) to |f| ~ target, then hold
+    (optionally turning by ``turn`` per step, rad); return the last observation."""
     u = env.unwrapped
     step = u.config.max_translation
-    obs = None
+    control = PressController(
+        PressConfig(target_force=target, max_step=step, approach_step=0.5 * step)
+    )
     for _ in range(40):
-        f = u.pipeline.touch.force
-        error = target - np.linalg.norm(f)
-        if abs(error) < 0.3 and np.linalg.norm(f) > 1.0:
+        down = control.step(obs["wrench"])
+        if down is None:
             break
-        down = 0.5 * step if np.linalg.norm(f) < 0.2 else np.clip(error / 6000.0, -step, step)
         obs, *_ = env.step(np.r_[(DOWN * down + sideways) / step, 0, 0, 0].astype(np.float32))
     for _ in range(hold):
         obs, *_ = env.step(np.r_[0, 0, 0, turn / u.config.max_rotation].astype(np.float32))
@@ -50,8 +51,8 @@ def edge_error_deg(u, m) -> tuple[float, float]:
 
 
 def test_a_pure_press_on_the_edge_is_one_measurement_of_it():
-    env, u = make(start_across_range=(0.0005, 0.0005))
-    press(env, hold=15)
+    env, u, obs = make(start_across_range=(0.0005, 0.0005))
+    obs = press(env, obs, hold=15)
     assert len(u.measurements) == 1  # one per touch, however long the hold
     m = u.measurements[0]
     angle, distance = edge_error_deg(u, m)
@@ -66,36 +67,36 @@ def test_a_pure_press_on_the_edge_is_one_measurement_of_it():
     assert eig.min() > -1e-12 and np.sqrt(eig.sum()) == pytest.approx(m.edge_std)
     # Lift off and press again: a new touch, a second measurement.
     for _ in range(3):
-        env.step(np.r_[0, 0, 1, 0, 0, 0].astype(np.float32))
-    press(env)
+        obs, *_ = env.step(np.r_[0, 0, 1, 0, 0, 0].astype(np.float32))
+    press(env, obs)
     assert len(u.measurements) == 2
     env.close()
 
 
 def test_a_press_that_drags_along_the_edge_is_refused():
-    env, u = make(start_across_range=(0.0005, 0.0005))
+    env, u, obs = make(start_across_range=(0.0005, 0.0005))
     _, direction = u.scene.edge_line  # truth aims the drag: this test attacks the gate
-    press(env, sideways=direction * 2e-5)  # ~1 deg of the path along the edge
+    press(env, obs, sideways=direction * 2e-5)  # ~1 deg of the path along the edge
     assert not u.measurements
     assert "drag bias" in u.gate.last_rejection
     env.close()
 
 
 def test_a_press_on_the_flat_face_is_refused():
-    env, u = make(start_across_range=(-0.008, -0.008))
-    press(env)
+    env, u, obs = make(start_across_range=(-0.008, -0.008))
+    press(env, obs)
     assert not u.measurements
     assert "tilt" in u.gate.last_rejection or "no edge" in u.gate.last_rejection
     env.close()
 
 
 def test_a_turning_or_moving_fingertip_is_not_measured():
-    env, u = make(start_across_range=(0.0005, 0.0005))
-    press(env, hold=8, turn=np.array([0.0, 0.0, 0.002]))
+    env, u, obs = make(start_across_range=(0.0005, 0.0005))
+    press(env, obs, hold=8, turn=np.array([0.0, 0.0, 0.002]))
     assert not u.measurements
     env.close()
-    env, u = make(start_across_range=(0.0005, 0.0005))
-    press(env, hold=0)
+    env, u, obs = make(start_across_range=(0.0005, 0.0005))
+    press(env, obs, hold=0)
     for _ in range(8):  # creep sideways at 0.05 mm per step while pressed
         env.step(np.r_[0.025, 0, 0, 0, 0, 0].astype(np.float32))
     assert not u.measurements
@@ -103,8 +104,8 @@ def test_a_turning_or_moving_fingertip_is_not_measured():
 
 
 def test_a_press_outside_the_force_band_is_not_measured():
-    env, u = make(start_across_range=(0.0005, 0.0005))
-    press(env, target=2.5)
+    env, u, obs = make(start_across_range=(0.0005, 0.0005))
+    press(env, obs, target=2.5)
     assert not u.measurements
     env.close()
 
@@ -118,7 +119,7 @@ def test_a_press_outside_the_force_band_is_not_measured():
         {"friction_share": -0.1},
         {"bias_budget": 2.0},
         {"point_std": 0.0},
-        {"touch_force": 9.0},
+        {"force_band": (0.1, 5.0)},  # its min below TOUCH_FORCE
     ],
 )
 def test_gate_config_validation(kw):

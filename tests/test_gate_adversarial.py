@@ -4,7 +4,7 @@ Each policy acts on the 6-D fingertip actions (the primitive ids run the same ga
 primitives, and are attacked with random primitives). The truth is read only here, after the
 episodes: every accepted measurement is compared with the nearest long edge of the links'
 top faces (all lie at the one distance from the axis that the fit assumes, so each is a valid
-measurement: ``tactile_gym/envs/touch.py``, ``tactile_gym/envs/gate.py``). Required (issue
+measurement: ``tactile_gym/sensing/probing.py``, ``tactile_gym/envs/gate.py``). Required (issue
 "HingeProbe-v1"): P95 edge error <= 5 deg and P95 distance from the edge line <= 3 mm.
 
 The full attack (60 episodes per id) is ``slow``; the default run keeps a short one.

@@ -44,7 +44,6 @@ ROOT = Path(tactile_gym.__file__).resolve().parents[1]
 FORBIDDEN = (
     "tactile_gym/sensing/",
     "tactile_gym/estimation/",
-    "tactile_gym/envs/touch.py",
     "tactile_gym/envs/gate.py",
     "tactile_gym/envs/measurement.py",
     "tactile_gym/envs/observation.py",

@@ -368,7 +368,7 @@ def test_min_tilt_snr_sets_the_threshold():
     snr = estimate_contact(f, m).tilt_snr
     assert estimate_contact(f, m, min_tilt_snr=snr * 0.99).edge_observable
     assert not estimate_contact(f, m, min_tilt_snr=snr * 1.01).edge_observable
-    with pytest.raises(ValueError, match="min_tilt_snr must be a finite number >= 0"):
+    with pytest.raises(ValueError, match="min_tilt_snr must be a finite number"):
         estimate_contact(f, m, min_tilt_snr=-1.0)
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tactile_gym.sensing import estimate_contact
+from tactile_gym.sensing import PressConfig, PressController, estimate_contact, run_press
 from tactile_gym.sensing.geometry import FingertipGeometry
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
 from tactile_gym.sim.primitives import RoundedBox, rounded_box_sdf
@@ -289,12 +289,18 @@ def test_noise_free_press_on_the_edge_gives_the_edge(offset):
         centre = ep + 0.05 * ed + offset * outward
         down = np.array([1.0, 0.0, 0.0, 0.0])
         top = centre + (g.outer_radius + g.cylinder_length) * np.array([0.0, 0.0, 1.0])
-        scene.reset(0.0, top + [0.0, 0.0, 0.0005], down)
-        scene.force_limit = 5.0
-        for k in range(1, 31):
-            scene.control_step(top - [0.0, 0.0, 0.0001 * k], down)
-        for _ in range(3):
-            scene.control_step(scene.fingertip_position, down)
+        target = top + [0.0, 0.0, 0.0005]
+        scene.reset(0.0, target, down)
+        rng = np.random.default_rng(0)
+
+        def lower(step: float) -> None:
+            nonlocal target
+            target = target - [0.0, 0.0, step]
+            scene.control_step(target, down)
+
+        # The shared press on the noisy reading, 0.1 mm per control step, three still readings.
+        press = PressController(PressConfig(max_step=0.0001, dwell=3))
+        assert run_press(press, lambda: scene.read_wrench(rng), lower).phase == "done"
         w = scene.true_wrench
         assert np.linalg.norm(w[:3]) == pytest.approx(5.0, rel=0.1)
         est = estimate_contact(w[:3], w[3:], g, skin_stiffness=scene.skin_config.normal_stiffness)

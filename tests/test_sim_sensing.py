@@ -10,15 +10,19 @@ scatter around the true edge as ``edge_cov`` says, and presses that carry no edg
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from tactile_gym.sensing import estimate_contact
+from tactile_gym.sensing import PressConfig, PressController, estimate_contact, run_press
 from tactile_gym.sim import ObjectConfig, ProbeScene
 from tactile_gym.spatial import matrix_to_quaternion, z_to
 
 ALONG = 0.05  # m, probe position along the edge from the pin
-PRESS_STEP = 0.0001  # m per control step
+#: The shared press on the noisy reading: 0.1 mm per control step, to within 0.1 N, then two
+#: still readings.
+PRESS = PressConfig(tolerance=0.1, max_step=0.0001, stiffness=12000.0, dwell=2, reach=0.004)
 
 
 @pytest.fixture(scope="module")
@@ -42,8 +46,8 @@ def press(scene, offset, joint_angle=0.0, force=5.0, path_axis=(0, 0, 1), finger
     -``finger_axis`` (default: the path).
 
     Returns:
-        (quaternion of the finger, fingertip position at touchdown: the first control step
-        with |f| > 0.2 N, world frame).
+        (quaternion of the finger, fingertip position at touchdown: the first reading of a
+        touch, world frame).
     """
     scene.reset(joint_angle, [0.0, 0.0, 0.3], [0.0, 0.0, 0.0, 1.0])
     ep, ed = scene.edge_line
@@ -54,15 +58,20 @@ def press(scene, offset, joint_angle=0.0, force=5.0, path_axis=(0, 0, 1), finger
     g = scene.geometry
     start = ep + ALONG * ed + offset * out + (g.outer_radius + 0.001) * n + g.cylinder_length * axis
     scene.reset(joint_angle, start, quat)
-    scene.force_limit = force
-    touch = None
-    for k in range(1, 200):
-        info = scene.control_step(start - k * PRESS_STEP * n, quat)
-        if touch is None and np.linalg.norm(scene.true_wrench[:3]) > 0.2:
+    scene.force_limit = 50.0  # the press, not the guarded move, stops at the force
+    control = PressController(replace(PRESS, target_force=force))
+    rng = np.random.default_rng(1)
+    target, touch = start, None
+
+    def advance(step: float) -> None:
+        nonlocal target, touch
+        if touch is None and control.touch_travel is not None:
             touch = scene.fingertip_position
-        if info.force_limited:
-            break
-    hold(scene, quat)
+        target = target - step * n
+        scene.control_step(target, quat)
+
+    run_press(control, lambda: scene.read_wrench(rng), advance)
+    assert control.phase == "done"
     assert np.linalg.norm(scene.true_wrench[:3]) == pytest.approx(force, rel=0.05)
     return quat, touch
 

@@ -1,68 +1,35 @@
 """The measurement gate: which touches become measurements for the joint-axis estimator.
 
-World frame, metres, newtons, radians. The gate sees, each control step, one F/T reading and
-the fingertip pose (both known to a real robot), never the simulator. It accepts a
-measurement only where the physics makes the sensing valid (``docs/design.md``, "What the skin
-measures"), judged from observable quantities alone:
+Each control step the gate takes one F/T reading and the fingertip's pose (both known to a
+real robot), never the simulator, and keeps a measurement only where the physics makes the
+sensing valid (``docs/design.md`` 7.2, which gives the figures behind every threshold). A
+measurement is a static, pure press on the edge of a face. Over the readings since the skin
+last was free (a reading below ``TOUCH_FORCE``), a press is accepted when:
 
-A measurement is a static, pure press on the edge of a face. The edge cuts the contact patch,
-the line of action of the force misses the hemisphere's centre, and e = n x f is the edge. The
-rules come from the regime map (``benchmarks/regime_map.py``, ``docs/design.md``, "What the
-skin measures"); each uses the readings and the fingertip's pose since the skin last was free
-(|f| <= ``touch_force``), which a real robot knows:
+1. the fingertip held still for ``dwell`` readings, whose force stayed steady
+   (``max_force_spread``); they are averaged and read as one wrench with ``dwell`` times
+   less noise variance (``TouchSensor.sense``);
+2. the averaged force lies in ``force_band``;
+3. its edge is observable and the force is tilted by at least ``min_tilt``;
+4. the tilt is the truncated patch's, not friction's (:func:`friction_free`);
+5. the bias that the path's drag along the edge predicts, plus twice the predicted edge
+   error, is within ``bias_budget`` (:func:`drag_bias`, :func:`bias_within_budget`); the
+   bias is added to the measurement's edge covariance;
+6. the link held: the fingertip travelled no further than a flat-face press to that force
+   needs, times ``max_travel_ratio`` (:func:`link_held`), and did not turn by more than
+   ``max_press_rotation``;
+7. the skin stayed ``table_clearance`` above the table (z = 0), so the wrench is the object's
+   alone.
 
-1. *Still and steady*: the fingertip held still for ``dwell`` readings, which are averaged (a
-   filtered F/T reading: a single reading at 5 N errs 6 deg at P95, the mean of ten 2.4 deg),
-   and the force stayed steady over them (within ``max_force_spread``).
-2. *In the band*: the averaged force lies in ``force_band`` (the paper's 5 N press).
-3. *An edge, cut well*: the force is tilted from the skin normal beyond its noise
-   (``ContactEstimate.edge_observable``; a press on a flat face is not) and by at least
-   ``min_tilt``. The less the edge cuts the patch, the smaller the tilt and the deeper inside
-   the face the contact point (the patch's pressure centre) lies: 2.5 mm at 6 deg, 1.9 mm at
-   10 deg.
-4. *Not friction's tilt*: the angle between the press path and the force line is at most
-   ``friction_share`` times the tilt. When the truncated patch tilts the force, the force
-   stays on the path (measured ratio 0.04-0.23); when a drag makes the tilt, the force lies
-   between the path and the skin normal (ratio >= 1.05), and its "edge" is the drag's normal,
-   30-90 deg off on a flat face.
-5. *A small drag bias*: a path component along the measured edge (``drag``, as an angle, less
-   twice the noise of the measured force line) drags the sticking skin along the edge and
-   turns the measured edge by up to ``atan(drag_gain tan(drag) / tan(tilt))``
-   (``drag_gain`` = 1.7 covers straight oblique presses and sideways moves after a press);
-   that bias plus twice the predicted edge error must stay within ``bias_budget``. The bias
-   is added to the measurement's edge variance.
-6. *A link that held*: since the first contact the fingertip travelled at most
-   ``max_travel_ratio`` times what a flat face needs for the same force (a link that gives
-   way under the press lets the finger travel 5-10 times that, and turns the edge during the
-   press), and it did not turn by more than ``max_press_rotation``.
+One measurement per touch. :meth:`MeasurementGate.same_edge` then keeps a measurement only
+if its contact is clear of the estimated hinge and its edge line lies at the expected
+distance (``edge_distance``) from the estimated axis, which tells the probed long edge from
+the link's end and corners. Slides are not measured (``docs/design.md`` 4.3). Every accepted
+edge is oriented physically (``tactile_gym.sensing.probing``).
 
-7. *Only the object*: the skin's lowest point stays at least ``table_clearance`` above the
-   table (z = 0 in the world frame, which the robot knows like its workbench): a skin that
-   also rests on the table sums two contacts into one wrench (measured 10-60 deg off).
-
-One press measurement is taken per touch; a new one needs the skin to lift off first.
-
-*The same edge*: a press near the link's end measures the end's edge, and one at a corner a
-mix of two (both edges cut the patch: the edge comes out up to 45 deg off); no single wrench
-tells them from the long edge. Their edge lines, though, lie tens of millimetres further from
-the axis than the long edge's, and the fit assumes one distance. The reset distribution fixes
-that distance (half the link's width for these objects, known before touching, like the
-axis prior), so a press is kept only if its edge line lies at that distance from the current
-estimated axis, within ``identity_tolerance`` plus three times the spread that the distance's
-own spread, the press's errors and the estimate's uncertainty predict
-(``MeasurementGate.same_edge``; the env sets ``edge_distance``). Near the hinge the links
-overlap around the pin and a press can touch both, mixing two links' edges; a press whose
-contact lies within ``min_hinge_distance`` (plus the estimate's position uncertainty) of the
-estimated axis is not kept either.
-
-Slides along the edge are not measured. A line through the contact points of a slide along
-the edge does give the edge, but while the skin sticks and carries the link round (the way a
-fingertip turns it) the contact moves with the link, across the edge, and the readings alone
-cannot tell the two apart: such traces were accepted 80 deg off in tests. Pure presses give
-0.2-2 deg edges anyway.
-
-Every accepted edge is oriented physically (``tactile_gym.envs.touch``), so both long edges of a
-link share one signed distance to the axis and the estimator must not re-sign them.
+The rules are functions of a :class:`GateConfig`, so that the regime map
+(``benchmarks/regime_map``) tests the same rules it supports. World frame, metres, newtons,
+radians.
 """
 
 from __future__ import annotations
@@ -71,13 +38,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile_gym.envs.touch import Touch, TouchSensor
 from tactile_gym.estimation import AxisEstimate
-from tactile_gym.sensing import indentation_depth
+from tactile_gym.sensing import TOUCH_FORCE, Touch, TouchSensor, indentation_depth
 from tactile_gym.spatial import matrix_to_rotvec
 from tactile_gym.validation import check_int, check_number, check_range
 
-__all__ = ["GateConfig", "Measurement", "MeasurementGate", "line_distance"]
+__all__ = [
+    "GateConfig",
+    "Measurement",
+    "MeasurementGate",
+    "bias_within_budget",
+    "drag_bias",
+    "flat_press_depth",
+    "friction_free",
+    "line_distance",
+    "link_held",
+]
 
 _DEG = np.pi / 180.0
 
@@ -87,10 +63,8 @@ class GateConfig:
     """Thresholds of the measurement gate (module docstring).
 
     Attributes:
-        force_band: accepted (min, max) force of a measurement, N.
-        touch_force: force above which the skin counts as touching, N. Just above the
-            reading noise (|f| of noise alone: about 0.035 N), so that a skin loaded sideways
-            before a press shows as part of the press's path.
+        force_band: accepted (min, max) force of a measurement, N; the min at least
+            ``TOUCH_FORCE``.
         dwell: readings averaged for one press measurement (the fingertip held still).
         still_translation: largest fingertip motion in one step that counts as still, m.
         still_rotation: largest fingertip rotation in one step that counts as still, rad.
@@ -105,17 +79,17 @@ class GateConfig:
         max_press_rotation: largest fingertip rotation since the skin was free, rad.
         table_clearance: least height of the skin's lowest point above the table, m.
         identity_tolerance: the slack of the same-edge test beyond three predicted sigmas, m
-            (the contact point's own depth inside the face varies by about 2 mm).
-        min_hinge_distance: least distance of a kept contact from the estimated axis, m (the
-            links overlap 10 mm past the pin, and a patch reaches 5 mm).
-        point_std: 1-sigma error of a measured contact point handed to the estimator, m (the
-            point sits 0.9-3.1 mm inside the face, at the truncated patch's pressure centre).
-        edge_std_floor: least edge error handed to the estimator, rad: the 0.1-0.9 deg model
-            error (node spacing, edge rounding) that sensor noise does not show.
+            (the variation of the contact point's depth inside the face, ``docs/design.md``
+            4.5).
+        min_hinge_distance: least distance of a kept contact from the estimated axis, m (where
+            the links overlap around the pin, ``docs/design.md`` 7.2).
+        point_std: 1-sigma error of a measured contact point handed to the estimator, m
+            (``docs/design.md`` 4.5).
+        edge_std_floor: least edge error handed to the estimator, rad: the model error (node
+            spacing, edge rounding) that sensor noise does not show (``docs/design.md`` 4.1).
     """
 
     force_band: tuple[float, float] = (4.0, 7.5)
-    touch_force: float = 0.1
     dwell: int = 6
     still_translation: float = 2e-5
     still_rotation: float = 2e-4
@@ -135,11 +109,10 @@ class GateConfig:
 
     def __post_init__(self) -> None:
         check_range("gate.force_band", self.force_band, 0.0, 50.0, allow_equal=False)
-        check_number("gate.touch_force", self.touch_force, 0.0, 50.0, low_open=True)
-        if self.touch_force > self.force_band[0]:
+        if self.force_band[0] < TOUCH_FORCE:
             raise ValueError(
-                f"gate.touch_force must be <= gate.force_band[0] ({self.force_band[0]:g} N),"
-                f" got {self.touch_force!r}"
+                f"gate.force_band[0] must be >= TOUCH_FORCE ({TOUCH_FORCE:g} N), got"
+                f" {self.force_band[0]!r}"
             )
         check_int("gate.dwell", self.dwell, 1, 100)
         check_number("gate.still_translation", self.still_translation, 0.0, 1e-3, low_open=True)
@@ -157,6 +130,60 @@ class GateConfig:
         check_number("gate.min_hinge_distance", self.min_hinge_distance, 0.0, 0.1)
         check_number("gate.point_std", self.point_std, 0.0, 0.01, low_open=True)
         check_number("gate.edge_std_floor", self.edge_std_floor, 0.0, np.pi / 4)
+
+
+# --- the rules, as functions of a GateConfig (module docstring; docs/design.md 7.2) ---------
+
+
+def friction_free(deviation, tilt, config: GateConfig):
+    """Whether the force's tilt is the truncated patch's rather than friction's (rule 4).
+
+    A tilt that the truncated patch makes keeps the force on the press path; one that a drag
+    makes puts the force between the path and the skin normal, and its "edge" is the drag's
+    normal (``docs/design.md`` 4.2).
+
+    Args:
+        deviation: angle between the press path and the force line, rad; float or array.
+        tilt: the force's tilt from the skin normal, rad; float or array.
+        config: the gate (``friction_share``).
+
+    Returns:
+        deviation <= ``friction_share`` x tilt, a bool or bool array.
+    """
+    return deviation <= config.friction_share * tilt
+
+
+def drag_bias(drag, tilt, gain: float):
+    """Edge error that a drag along the edge predicts, rad: atan(gain tan(drag) / tan(tilt)).
+
+    Friction tilts the force along the edge by about ``gain`` x the drag (the path-to-force
+    angle along the measured edge) while the truncated patch tilts it across by ``tilt``, so
+    the measured edge turns by that angle (``docs/design.md`` 4.2; the gate takes
+    ``GateConfig.drag_gain``, the largest gain measured).
+
+    Args:
+        drag: rad; float or array. tilt: rad; float or array. gain: >= 0.
+    """
+    return np.arctan(gain * np.tan(drag) / np.tan(tilt))
+
+
+def bias_within_budget(bias, edge_std, config: GateConfig):
+    """Whether a drag bias plus twice the predicted edge error, rad, fits ``bias_budget``
+    (rule 5); floats or arrays."""
+    return bias + 2.0 * edge_std <= config.bias_budget
+
+
+def flat_press_depth(force, skin_stiffness: float, radius: float):
+    """Fingertip travel from the first touch to |f| = ``force`` (N) on a flat face, m: the
+    Winkler sphere-on-plane indentation (``indentation_depth``, ``"plane"``)."""
+    return indentation_depth(force, skin_stiffness, radius, "plane")
+
+
+def link_held(travel, force, skin_stiffness: float, radius: float, config: GateConfig):
+    """Whether a press's travel since the first touch, m, shows a link that held (rule 6):
+    at most ``max_travel_ratio`` x ``flat_press_depth(force)``; a link that gives way lets
+    the fingertip travel several times that (``docs/design.md`` 7.2)."""
+    return travel <= config.max_travel_ratio * flat_press_depth(force, skin_stiffness, radius)
 
 
 @dataclass(frozen=True)
@@ -235,7 +262,7 @@ class MeasurementGate:
         before = self._pose
         self._pose = (rotation.copy(), position.copy())
         magnitude = float(np.linalg.norm(touch.force))
-        if not (touch.valid and magnitude > cfg.touch_force):
+        if not touch.valid:  # |f| below TOUCH_FORCE, or no contact explains the wrench
             self._touch_pose, self._pressed = None, False
             self._window = []
             return []
@@ -290,7 +317,7 @@ class MeasurementGate:
         if touch.tilt < cfg.min_tilt:
             return self._reject(f"force tilt {np.degrees(touch.tilt):.1f} deg below min_tilt")
         deviation = float(np.arccos(np.clip(-(path / depth) @ touch.force / magnitude, -1, 1)))
-        if deviation > cfg.friction_share * touch.tilt:
+        if not friction_free(deviation, touch.tilt, cfg):
             return self._reject(
                 f"press path {np.degrees(deviation):.2f} deg off the force line, more than"
                 f" {cfg.friction_share} x its {np.degrees(touch.tilt):.2f} deg tilt (friction)"
@@ -300,15 +327,14 @@ class MeasurementGate:
         # noise, not a drag (a straight-down press reads 0.1-0.2 deg).
         noise = self.sensor.sensor.force_noise_std / (magnitude * np.sqrt(len(window)))
         drag = max(drag - 2.0 * noise, 0.0)
-        bias = float(np.arctan(cfg.drag_gain * np.tan(drag) / np.tan(touch.tilt)))
-        if bias + 2.0 * touch.edge_std > cfg.bias_budget:
+        bias = float(drag_bias(drag, touch.tilt, cfg.drag_gain))
+        if not bias_within_budget(bias, touch.edge_std, cfg):
             return self._reject(
                 f"drag bias {np.degrees(bias):.2f} deg + 2 x edge std"
                 f" {np.degrees(touch.edge_std):.2f} deg over the budget"
             )
-        flat = indentation_depth(magnitude, self.sensor.skin_stiffness, self._radius, "plane")
         travel = float(np.linalg.norm(position - self._contact_position))
-        if travel > cfg.max_travel_ratio * flat:
+        if not link_held(travel, magnitude, self.sensor.skin_stiffness, self._radius, cfg):
             return self._reject(f"press travel {travel:.2e} m since contact: the link gave way")
         if np.linalg.norm(matrix_to_rotvec(rotation @ r0.T)) > cfg.max_press_rotation:
             return self._reject("fingertip turned during the press")

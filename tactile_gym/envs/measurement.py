@@ -26,9 +26,8 @@ import numpy as np
 
 from tactile_gym.envs.gate import GateConfig, Measurement, MeasurementGate, line_distance
 from tactile_gym.envs.scenarios import ScenarioConfig, probed_edge, sample_scenario
-from tactile_gym.envs.touch import Touch, TouchSensor
 from tactile_gym.estimation import AxisEstimate, AxisPrior, JointAxisEstimator
-from tactile_gym.sensing import FingertipGeometry, SensorConfig
+from tactile_gym.sensing import FingertipGeometry, SensorConfig, Touch, TouchSensor
 
 __all__ = [
     "DISTINCT_ANGLE",

@@ -35,6 +35,7 @@ from tactile_gym.envs.observation import (
     ProgressObs,
     WrenchObs,
 )
+from tactile_gym.sensing import RELEASE_FORCE, PressConfig, PressController
 from tactile_gym.spatial import quaternion_to_matrix
 
 __all__ = [
@@ -55,10 +56,6 @@ __all__ = [
 PRIMITIVES = ("probe", "turn")
 
 UP = np.array([0.0, 0.0, 1.0])
-#: Force below which the skin counts as free, N.
-FREE_FORCE = 0.1
-#: Approximate force gradient of a 5 N edge press, N/m (it sets the press's step size).
-PRESS_STIFFNESS = 6000.0
 
 
 @dataclass(frozen=True)
@@ -172,8 +169,9 @@ class Skill:
 class Press(Skill):
     """Press along the face normal to ``force``, then hold still for ``dwell`` steps.
 
-    Moving only along the normal keeps the press pure (module docstring). Ends after the
-    dwell, or failed when no contact comes within ``reach`` of travel.
+    The press is ``tactile_gym.sensing.PressController``'s, one env action per reading;
+    moving only along the normal keeps it pure (module docstring). Ends after the dwell, or
+    failed when no contact comes within ``reach`` of travel.
     """
 
     def __init__(
@@ -182,37 +180,28 @@ class Press(Skill):
         frame: ProbeFrame,
         force: float,
         dwell: int,
-        reach: float = 0.012,
-        tolerance: float = 0.3,
+        reach: float = PressConfig.reach,
+        tolerance: float = PressConfig.tolerance,
     ) -> None:
         super().__init__(max_translation, frame, budget=int(reach / max_translation) + 30)
-        self.force = float(force)
-        self.dwell = int(dwell)
-        self.reach = float(reach)
-        self.tolerance = float(tolerance)
-        self._held = 0
-        self._travel = 0.0
+        config = PressConfig(
+            target_force=force,
+            tolerance=tolerance,
+            max_step=max_translation,
+            dwell=dwell,
+            reach=reach,
+        )
+        self.press = PressController(config)
 
     def _move(self, reading: TouchReading) -> np.ndarray | None:
-        n = self.frame.normal
-        error = self.force - reading.magnitude
-        if self._held or (reading.touching and abs(error) <= self.tolerance):
-            self._held += 1
-            if self._held > self.dwell:
+        step = self.press.step(reading.force)
+        if step is None:
+            if self.press.phase == "done":
                 self.frame.update(reading)
-                return None
-            return np.zeros(3)
-        if not reading.touching or reading.magnitude < FREE_FORCE:
-            if self._travel >= self.reach:
+            else:
                 self.failed = True
-                return None
-            step = self.max_translation
-        else:
-            step = float(
-                np.clip(error / PRESS_STIFFNESS, -self.max_translation, self.max_translation)
-            )
-        self._travel += max(step, 0.0)
-        return -n * step
+            return None
+        return -self.frame.normal * step
 
 
 class Lift(Skill):
@@ -224,7 +213,7 @@ class Lift(Skill):
         self._free_travel = 0.0
 
     def _move(self, reading: TouchReading) -> np.ndarray | None:
-        if reading.magnitude < FREE_FORCE:
+        if reading.magnitude < RELEASE_FORCE:
             if self._free_travel >= self.clearance:
                 return None
             step = min(self.max_translation, self.clearance - self._free_travel)
@@ -284,13 +273,17 @@ class Drag(Skill):
             return None
         if not reading.touching or reading.magnitude < 0.5 * self.force:
             # Not (yet) loaded: press first, do not slide over the face.
-            step = float(np.clip((self.force - reading.magnitude) / PRESS_STIFFNESS, 0.0, 0.0005))
+            step = float(
+                np.clip((self.force - reading.magnitude) / PressConfig.stiffness, 0.0, 0.0005)
+            )
             return -n * max(step, 0.0002)
         across = np.sign(self.distance) * interior
         left = abs(self.distance) - abs(self._done)
         sideways = min(self.max_translation * 0.9, left)
         self._done += sideways
-        press = float(np.clip((self.force - reading.magnitude) / PRESS_STIFFNESS, -2e-4, 2e-4))
+        press = float(
+            np.clip((self.force - reading.magnitude) / PressConfig.stiffness, -2e-4, 2e-4)
+        )
         return across * sideways - n * press
 
 

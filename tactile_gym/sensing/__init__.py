@@ -1,29 +1,39 @@
 """Intrinsic contact sensing for a soft fingertip and its 6-axis force/torque sensor.
 
-NumPy only: this package must import without pybullet, so real robots can reuse it.
+NumPy only: this package must import without pybullet, so real robots can reuse it
+(``docs/design.md`` 5).
 """
 
-from tactile_gym.sensing.contact import (
-    CONTACT_MODELS,
-    CONTACT_SHAPES,
-    EDGE_STD_UNOBSERVABLE,
-    ContactEstimate,
-    edge_from_trace,
-    estimate_contact,
-    indentation_depth,
-)
+from tactile_gym.sensing.contact import ContactEstimate, estimate_contact
+from tactile_gym.sensing.contact_point import CONTACT_MODELS
+from tactile_gym.sensing.edge import EDGE_STD_UNOBSERVABLE, edge_from_trace
 from tactile_gym.sensing.geometry import FingertipGeometry, SurfaceSamples
-from tactile_gym.sensing.sensor import SensorConfig
+from tactile_gym.sensing.indentation import CONTACT_SHAPES, indentation_depth
+from tactile_gym.sensing.probing import (
+    PressConfig,
+    PressController,
+    Touch,
+    TouchSensor,
+    run_press,
+)
+from tactile_gym.sensing.sensor import RELEASE_FORCE, TOUCH_FORCE, SensorConfig
 
 __all__ = [
     "CONTACT_MODELS",
     "CONTACT_SHAPES",
     "EDGE_STD_UNOBSERVABLE",
+    "RELEASE_FORCE",
+    "TOUCH_FORCE",
     "ContactEstimate",
     "FingertipGeometry",
+    "PressConfig",
+    "PressController",
     "SensorConfig",
     "SurfaceSamples",
+    "Touch",
+    "TouchSensor",
     "edge_from_trace",
     "estimate_contact",
     "indentation_depth",
+    "run_press",
 ]

@@ -111,11 +111,6 @@ class FingertipGeometry:
         safe = np.where(norm > 1e-12, norm, 1.0)
         return np.where(norm > 1e-12, v / safe, fallback)
 
-    def closest_point(self, points: np.ndarray) -> np.ndarray:
-        """Projection of points onto the outer surface, sensor frame, m."""
-        p = _as_points(points)
-        return p - self.signed_distance(p)[..., None] * self.surface_normal(p)
-
     def sample_surface(self, spacing: float, z_min: float) -> SurfaceSamples:
         """Spread points over the outer surface at roughly ``spacing`` apart.
 

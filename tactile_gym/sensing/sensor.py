@@ -1,7 +1,9 @@
-"""The six-axis force/torque sensor under the fingertip: its noise and bias.
+"""The six-axis force/torque sensor under the fingertip: its noise, its bias, and a touch.
 
 The one place the sensor-noise defaults are written: the simulator draws its readings with
-them and ``estimate_contact`` predicts its errors with them.
+them and ``estimate_contact`` predicts its errors with them. ``TOUCH_FORCE`` is the one
+threshold at which a reading counts as a touch, for the sensing, the gate, the press and the
+skills alike, with ``RELEASE_FORCE`` its hysteresis (``docs/design.md`` 5).
 
 Conventions (``docs/design.md``, "Frames and units"): SI units (newtons, newton-metres);
 biases in the sensor frame (origin at the F/T sensor, z along the finger axis). NumPy only, so
@@ -14,7 +16,15 @@ from dataclasses import dataclass
 
 from tactile_gym.validation import check_number, check_vector
 
-__all__ = ["SensorConfig"]
+__all__ = ["RELEASE_FORCE", "TOUCH_FORCE", "SensorConfig"]
+
+#: |f| of a reading, N, at or above which the skin counts as touching: 10 standard deviations
+#: of the default per-axis force noise, so noise alone (|f| about 0.035 N) never reads as one.
+TOUCH_FORCE = 0.2
+#: |f|, N, below which a touch has ended: half of ``TOUCH_FORCE`` (hysteresis), so that a lift
+#: leaves the skin unloaded before the next press, and a reading that hovers at the threshold
+#: does not end a touch and start another.
+RELEASE_FORCE = 0.5 * TOUCH_FORCE
 
 
 @dataclass(frozen=True)
