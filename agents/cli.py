@@ -171,6 +171,14 @@ def import_pybullet_quietly() -> None:
             import pybullet  # noqa: F401
 
 
+def _message(error: BaseException) -> str:
+    """The error's text; a YAML syntax error's in one line with its file and line."""
+    mark = getattr(error, "problem_mark", None)
+    if isinstance(error, yaml.YAMLError) and mark is not None:
+        return f"{mark.name}, line {mark.line + 1}: invalid YAML: {error.problem}"
+    return str(error).strip() or type(error).__name__
+
+
 def command_name(main: Callable) -> str:
     """``python -m <module>`` of the command whose ``main`` this is."""
     module = main.__module__
@@ -195,7 +203,7 @@ def run_main(main: Callable[[list[str] | None], Any], argv: list[str] | None = N
     except EXPECTED_ERRORS as error:
         if "--debug" in argv:
             raise
-        message = str(error).strip() or type(error).__name__
+        message = _message(error)
         print(f"{name}: error: {message}", file=sys.stderr)
         return USAGE_ERROR
     except BrokenPipeError:

@@ -653,7 +653,15 @@ def evaluate(
     }
     (out / "evaluation.json").write_text(json.dumps(json_safe(result), indent=1, allow_nan=False))
     if plot:
-        plot_errors(records, out / "error_vs_step.png", specs[0].env_id)
+        # Models by algorithm too: a sweep's PPO and SAC runs share their folder names.
+        names = {
+            s.label: s.label
+            if s.name in BUILTIN_POLICIES
+            else f"{model_run(Path(s.name))['algo'].upper()} {s.label}"
+            for s in specs
+        }
+        shown = {names[label]: recs for label, recs in records.items()}
+        plot_errors(shown, out / "error_vs_step.png", specs[0].env_id)
     return summaries
 
 

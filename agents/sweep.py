@@ -295,8 +295,8 @@ class Progress:
         self.start = time.monotonic()
         self._last_line, self._last_time = None, time.monotonic()
 
-    def update(self, running: dict[str, Path] | None = None, **counts) -> None:
-        """New counts; ``running`` maps each running job to its folder."""
+    def update(self, jobs: dict[str, Path] | None = None, **counts) -> None:
+        """New counts; ``jobs`` maps each running job to its folder."""
         self.counts.update(counts)
         c = self.counts
         line = (
@@ -310,7 +310,7 @@ class Progress:
             print(f"{line} ({elapsed // 60:02d}:{elapsed % 60:02d})", file=self.out, flush=True)
             self._last_line, self._last_time = line, now
             if periodic:
-                for key, run_dir in (running or {}).items():
+                for key, run_dir in (jobs or {}).items():
                     print(f"  {key}: {_last_line(run_dir / 'job.log')}", file=self.out, flush=True)
 
 
@@ -453,7 +453,7 @@ def _run_jobs(todo, sweep_dir, config, address, num_cpus, retries, progress):
                     if _started(sweep_dir / j.key, token)
                 }
                 progress.update(
-                    running,
+                    running,  # the jobs
                     done=finished_before + len(done),
                     running=len(running),
                     queued=len(pending) - len(running),

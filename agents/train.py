@@ -250,8 +250,9 @@ def check_hyperparameters(algo: str, config: Mapping[str, Any]) -> None:
 
     Raises:
         ValueError: a key that is neither a run key (:data:`RUN_KEYS`) nor an argument of the
-            algorithm, naming it, the closest allowed key and all of them; or a key that
-            ``agents.train`` sets from its own arguments (:data:`SET_BY_TRAIN`).
+            algorithm, naming it, the closest allowed key and all of them; a key that
+            ``agents.train`` sets from its own arguments (:data:`SET_BY_TRAIN`); or a
+            schedule that is not ``lin_<number>``.
     """
     parameters = inspect.signature(algorithm_class(algo).__init__).parameters
     allowed = sorted((set(parameters) - {"self", "policy", *SET_BY_TRAIN}) | set(RUN_KEYS))
@@ -267,6 +268,7 @@ def check_hyperparameters(algo: str, config: Mapping[str, Any]) -> None:
             raise ValueError(
                 f"unknown {algo} hyperparameter {key!r}{hint}; allowed: {', '.join(allowed)}"
             )
+    algo_kwargs(config)  # checks the values of rl_zoo3's forms (schedules)
 
 
 def _linear_schedule(initial: float):
