@@ -423,6 +423,7 @@ def train(
     }
     if checkpoint is not None:
         record["resumed_from"] = checkpoint.relative_to(run_dir).as_posix()
+        (run_dir / "failed.txt").unlink(missing_ok=True)
     try:
         with open(run_dir / "config.yml", "w") as f:
             yaml.safe_dump(record, f, sort_keys=False)

@@ -186,6 +186,8 @@ def test_tiny_sweep_on_embedded_ray(tmp_path, capsys):
     assert sorted(report.failed) == [f"sac/{name}_s0", f"sac/{name}_s1"]
     assert out.count("retrying") == 0
     assert f"FAILED sac/{name}_s0" in out
+    log = (report.sweep_dir / f"ppo/{name}_s0/job.log").read_text()
+    assert "256/256 env steps (100 %)" in log and "evaluating final_model" in log
     assert (report.sweep_dir / f"sac/{name}_s0/error.txt").exists()
     assert "| ppo | 2 |" in report.markdown and "| sac" not in report.markdown
     assert (report.sweep_dir / f"learning_curve_{name}.png").exists()
