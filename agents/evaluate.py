@@ -555,9 +555,10 @@ def plot_errors(records: dict[str, list[EpisodeRecord]], path: Path, env_id: str
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
-    from matplotlib.ticker import LogFormatter, ScalarFormatter
+    from matplotlib.patches import Patch
 
-    fig, ax = plt.subplots(figsize=(8.5, 4))
+    fig, ax = plt.subplots(figsize=(9, 4))
+    handles, labels = [], []
     for name, recs in records.items():
         length = max(len(r.position_error) for r in recs)
         padded = (
@@ -570,30 +571,49 @@ def plot_errors(records: dict[str, list[EpisodeRecord]], path: Path, env_id: str
             * 1e3
         )
         steps = np.arange(length)
-        (line,) = ax.plot(steps, np.median(padded, axis=0), label=f"{name}, median")
-        ax.fill_between(
-            steps,
-            *np.percentile(padded, [25, 75], axis=0),
-            alpha=0.2,
-            linewidth=0,
-            color=line.get_color(),
-            label=f"{name}, 25-75 % of episodes",
-        )
+        (line,) = ax.plot(steps, np.median(padded, axis=0))
+        band = np.percentile(padded, [25, 75], axis=0)
+        ax.fill_between(steps, *band, alpha=0.2, linewidth=0, color=line.get_color())
+        handles.append((Patch(color=line.get_color(), alpha=0.2, linewidth=0), line))
+        labels.append(name)
     ax.axhline(REACH_THRESHOLD * 1e3, color="grey", linestyle=":", linewidth=1)
+    handles.append(Line2D([], [], color="grey", linestyle=":", linewidth=1))
+    labels.append(f"{REACH_THRESHOLD * 1e3:.0f} mm ('reached 5 mm')")
     n = len(next(iter(records.values())))
-    ax.set_title(f"{env_id}: axis position error over {n} episode{'s' if n != 1 else ''}")
+    fig.suptitle(f"{env_id}: axis position error, {n} episode{'s' if n != 1 else ''}")
     ax.set_xlabel(f"step ({step_unit(env_id)}; 0 = the prior, before any touch)")
     ax.set_ylabel("axis position error (mm)")
     ax.set_yscale("log")
-    ax.yaxis.set_major_formatter(ScalarFormatter())
-    ax.yaxis.set_minor_formatter(LogFormatter(labelOnlyBase=False, minor_thresholds=(2, 0.4)))
-    handles, labels = ax.get_legend_handles_labels()
-    handles.append(Line2D([], [], color="grey", linestyle=":", linewidth=1))
-    labels.append(f"{REACH_THRESHOLD * 1e3:.0f} mm (the 'reached 5 mm' threshold)")
-    ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    ax.yaxis.set_major_formatter(plain_log_ticks(minor=False))
+    ax.yaxis.set_minor_formatter(plain_log_ticks(minor=True))
+    ax.legend(
+        handles,
+        labels,
+        title="line: median; band: 25-75 % of episodes",
+        title_fontsize=8,
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        fontsize=8,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def plain_log_ticks(minor: bool):
+    """Tick labels of a log axis as plain numbers (``0.5``, ``2``, ``10``, not ``5x10^-1``);
+    of the minor ticks, only 2, 3 and 5 times a power of ten, so that labels do not crowd."""
+    from matplotlib.ticker import FuncFormatter
+
+    def label(value: float, _position) -> str:
+        if value <= 0:
+            return ""
+        mantissa = round(value / 10 ** math.floor(math.log10(value)), 6)
+        if minor and mantissa not in (2, 3, 5):
+            return ""
+        return f"{value:g}"
+
+    return FuncFormatter(label)
 
 
 def evaluate(
