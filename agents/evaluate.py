@@ -15,6 +15,10 @@ every episode depends on its seed alone: ``--workers`` spreads episodes over Ray
 the same results as a serial run. The script prints a markdown table and writes
 ``evaluation.json`` (strict JSON: NaN is written as ``null``) and ``error_vs_step.png`` to
 ``--out``.
+
+A model runs only on the id it was trained on (a primitive model also on its 6-D id, whose
+steps its primitives then drive) unless ``--force``; without a run config beside it, its
+algorithm comes from its zip, and an env whose spaces differ from the model's is refused.
 """
 
 from __future__ import annotations
