@@ -195,9 +195,9 @@ def plot_learning_curves(runs: list[RunResult], out_dir: str | Path) -> list[Pat
             if curve is None:
                 continue
             steps, mean, std = curve
-            seed_text = f"seed {seeds[0]}" if len(seeds) == 1 else f"{len(seeds)} seeds"
+            seed_text = f"seed {seeds[0]}" if len(seeds) == 1 else f"mean of {len(seeds)} seeds"
             (line,) = ax.plot(
-                steps, mean, marker="o", markersize=3, label=f"{algo.upper()}, mean of {seed_text}"
+                steps, mean, marker="o", markersize=3, label=f"{algo.upper()}, {seed_text}"
             )
             if len(seeds) > 1:
                 ax.fill_between(
@@ -214,7 +214,13 @@ def plot_learning_curves(runs: list[RunResult], out_dir: str | Path) -> list[Pat
             ax.set_xlabel(f"training steps ({step_unit(env_id)})")
             ax.set_ylabel("periodic evaluation: mean episode return")
             ax.set_title(f"{env_id}: learning curves")
-            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+            ax.legend(
+                title="points: periodic evaluations",
+                title_fontsize=8,
+                loc="upper left",
+                bbox_to_anchor=(1.01, 1.0),
+                fontsize=8,
+            )
             fig.tight_layout()
             path = Path(out_dir) / f"learning_curve_{env_id.split('/')[-1]}.png"
             fig.savefig(path, dpi=120)
