@@ -182,7 +182,7 @@ def plot_learning_curves(runs: list[RunResult], out_dir: str | Path) -> list[Pat
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .evaluate import step_unit
+    from .plots import step_unit
 
     written = []
     for env_id in dict.fromkeys(r.env_id for r in runs):
