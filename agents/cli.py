@@ -33,6 +33,7 @@ import contextlib
 import ctypes
 import os
 import sys
+import textwrap
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -99,15 +100,16 @@ def make_parser(module: str | None, doc: str | None, **kwargs: Any) -> argparse.
     Args:
         module: the command's module (``__spec__.name``): ``agents.train`` in a checkout,
             ``tactile_gym.agents.train`` in a wheel.
-        doc: the module docstring; its first line is the description, the rest (examples)
-            the epilog.
+        doc: the module docstring; its first line is the description, its first indented
+            block (the example commands) the epilog.
         **kwargs: further ``argparse.ArgumentParser`` arguments.
     """
     first, _, rest = (doc or "").strip().partition("\n")
+    examples = textwrap.dedent(rest.lstrip("\n").split("\n\n")[0])
     parser = argparse.ArgumentParser(
         prog=f"python -m {module}" if module else None,
         description=first,
-        epilog=rest.strip() or None,
+        epilog=f"examples:\n{textwrap.indent(examples, '  ')}" if examples.strip() else None,
         formatter_class=HelpFormatter,
         **kwargs,
     )
