@@ -199,7 +199,7 @@ def test_every_option_has_help_and_the_usage_names_the_module(module, monkeypatc
 def test_a_closed_pipe_ends_quietly():
     """``--dry-run | head``: the reader goes away; no BrokenPipeError traceback."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "agents.sweep", "baseline", "--dry-run"],
+        [sys.executable, "-m", "agents.sweep", "smoke", "--dry-run"],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
