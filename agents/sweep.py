@@ -322,6 +322,14 @@ def _last_line(path: Path) -> str:
     return lines[-1] if lines else "starting"
 
 
+def worth_retrying(error: BaseException) -> bool:
+    """Whether a job's error (Ray's wrapper, with the job's own error as ``cause``) may go
+    away on a second attempt: bad input (:data:`agents.cli.EXPECTED_ERRORS`) fails the same
+    way every time; a worker's death, a full disk or a race may not."""
+    cause = getattr(error, "cause", None) or error
+    return not isinstance(cause, EXPECTED_ERRORS)
+
+
 def _error_text(error: BaseException) -> tuple[str, str]:
     """A one-line summary of a job's error and its full text."""
     cause = getattr(error, "cause", None) or error
@@ -435,11 +443,7 @@ def _run_jobs(todo, sweep_dir, config, address, num_cpus, retries, progress):
                         done.append(job.key)
                     except Exception as error:  # a job's own error, or its worker's death
                         line, full = _error_text(error)
-                        cause = getattr(error, "cause", None) or error
-                        # Bad input fails the same way every time: retry only the rest
-                        # (a worker's death, a full disk, a bug that may be a race).
-                        deterministic = isinstance(cause, EXPECTED_ERRORS)
-                        if attempts[job.key] <= retries and not deterministic:
+                        if attempts[job.key] <= retries and worth_retrying(error):
                             print(f"job {job.key} failed ({line}); retrying", file=out)
                             pending[submit(job)] = job
                         else:

@@ -207,3 +207,15 @@ def test_parallel_evaluation_matches_serial(tmp_path):
     parallel = json.loads((tmp_path / "ray" / "evaluation.json").read_text())
     assert parallel["episodes_detail"] == serial["episodes_detail"]
     assert parallel["summaries"] == serial["summaries"]
+
+
+def test_only_errors_that_may_pass_are_retried():
+    class TaskError(Exception):  # what Ray raises: the job's own error as its cause
+        def __init__(self, cause):
+            super().__init__(str(cause))
+            self.cause = cause
+
+    assert not sweep.worth_retrying(TaskError(ValueError("unknown ppo hyperparameter")))
+    assert not sweep.worth_retrying(TaskError(ImportError("ray is not installed")))
+    assert sweep.worth_retrying(TaskError(RuntimeError("worker died")))
+    assert sweep.worth_retrying(OSError("No space left on device"))
