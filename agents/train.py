@@ -13,6 +13,12 @@ the arguments and the command line (``config.yml``), TensorBoard logs, the perio
 (``best_model.zip``), the final model (``final_model.zip``) and, with normalisation, the
 ``VecNormalize`` statistics saved with each model (see :func:`vecnormalize_path`).
 
+The hyperparameters are checked against the algorithm's constructor and the envs are made
+before the run folder is (:func:`check_hyperparameters`): a typo fails at once and leaves
+nothing behind. A run that fails later leaves no folder if it saved no model, else a
+``failed.txt`` saying why; an interrupted run with checkpoints can continue from the latest
+(``train(..., run_dir=..., resume=True)``, what ``agents.sweep`` does).
+
 The envs run in this process (``DummyVecEnv``) unless every env worker can have a core of its
 own beside the learner (:func:`choose_vec_env`); ``--vec-env`` overrides that choice.
 """
