@@ -219,3 +219,19 @@ def test_only_errors_that_may_pass_are_retried():
     assert not sweep.worth_retrying(TaskError(ImportError("ray is not installed")))
     assert sweep.worth_retrying(TaskError(RuntimeError("worker died")))
     assert sweep.worth_retrying(OSError("No space left on device"))
+
+
+def test_an_interrupted_job_with_a_checkpoint_is_resumed(tmp_path, capsys):
+    config = {"name": "cut", "log_folder": str(tmp_path), "env_ids": [ENV_ID],
+              "algos": ["ppo"], "seeds": [0, 1, 2], "budgets": 64}  # fmt: skip
+    jobs = sweep.expand(sweep.load_sweep(config))
+    for job, checkpoint in zip(jobs, (True, False)):  # seed 2: never started
+        run_dir = tmp_path / "cut" / job.key
+        (run_dir / "checkpoints").mkdir(parents=True)
+        (run_dir / "job.json").write_text(json.dumps({"spec": job.spec()}))
+        if checkpoint:
+            (run_dir / "checkpoints" / "rl_model_32_steps.zip").touch()
+    states = [sweep.job_state(job, tmp_path / "cut" / job.key) for job in jobs]
+    assert states == ["resume", "todo", "todo"]
+    sweep.run_sweep(config, dry_run=True)
+    assert "  resume  ppo/" in capsys.readouterr().out
