@@ -146,7 +146,10 @@ def quiet_c_output(fds: tuple[int, ...] = (1,)) -> Iterator[None]:
     """
     sys.stdout.flush()
     sys.stderr.flush()
-    libc = ctypes.CDLL(None)
+    try:
+        libc = ctypes.CDLL(None)  # this process's C library (Linux, macOS)
+    except (OSError, TypeError):  # Windows has no such handle: C output is not buffered away
+        libc = None
     saved = {}
     try:
         for fd in fds:
@@ -158,7 +161,8 @@ def quiet_c_output(fds: tuple[int, ...] = (1,)) -> Iterator[None]:
             try:
                 yield
             finally:
-                libc.fflush(None)  # C's buffered lines go to /dev/null, not to the restored fd
+                if libc is not None:  # C's buffered lines go to /dev/null, not the restored fd
+                    libc.fflush(None)
                 for fd, copy in saved.items():
                     os.dup2(copy, fd)
     finally:
