@@ -88,6 +88,14 @@ def test_training_smoke_sac_dict_observations(tmp_path):
                                   out=tmp_path / "eval")  # fmt: skip
     (label,) = summaries
     assert label == f"{run_dir.name}/final_model"
+    # Outside its run folder (no config.yml), the model still loads as SAC: the algorithm
+    # comes from its zip, not from a default.
+    lone = tmp_path / "elsewhere" / "model.zip"
+    lone.parent.mkdir()
+    shutil.copy(run_dir / "final_model.zip", lone)
+    env = gym.make(train.DEFAULT_ENV_ID, max_steps=5)
+    assert type(evaluate.make_policy(str(lone), env).model).__name__ == "SAC"
+    env.close()
 
 
 def test_training_records_resolved_run(flat_ppo_run):
