@@ -10,16 +10,12 @@ import contextlib
 from collections.abc import Iterator
 from pathlib import Path
 
+from .cli import require
+
 
 def import_ray():
     """The ``ray`` module, or an ImportError that says how to install it."""
-    try:
-        import ray
-    except ImportError as error:
-        raise ImportError(
-            'Ray is not installed; install the sweep extra: pip install -e ".[train,sweep]"'
-        ) from error
-    return ray
+    return require("ray", "train,sweep")
 
 
 @contextlib.contextmanager

@@ -7,7 +7,8 @@ and a 95 % bootstrap confidence interval of the mean of each run's held-out eval
 figures: the final position error (mm), the success rate, and the mean step at which the
 error first fell below 5 mm (over the runs in which some episode reached it). The learning
 curve of each env plots the periodic evaluations' mean return (``eval/evaluations.npz``)
-against env steps, mean +- std across seeds.
+against training steps (primitives or control steps, as the id counts), mean +- std across
+seeds.
 
 A run is a folder with ``job.json`` (env id, algo, seed) and ``evaluation/evaluation.json``,
 as ``agents.sweep`` writes them.
@@ -15,13 +16,15 @@ as ``agents.sweep`` writes them.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from .cli import make_parser, run_main
 
 #: (key in the run's evaluation summary, column title, scale, format)
 METRICS = (
@@ -179,24 +182,45 @@ def plot_learning_curves(runs: list[RunResult], out_dir: str | Path) -> list[Pat
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from .plots import step_unit
+
     written = []
     for env_id in dict.fromkeys(r.env_id for r in runs):
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = plt.subplots(figsize=(8.5, 4))
         plotted = False
         for algo in dict.fromkeys(r.algo for r in runs if r.env_id == env_id):
             dirs = [r.run_dir for r in runs if r.env_id == env_id and r.algo == algo]
+            seeds = sorted(r.seed for r in runs if r.env_id == env_id and r.algo == algo)
             curve = learning_curve(dirs)
             if curve is None:
                 continue
             steps, mean, std = curve
-            ax.plot(steps, mean, marker="o", markersize=3, label=f"{algo} ({len(dirs)} seeds)")
-            ax.fill_between(steps, mean - std, mean + std, alpha=0.2, linewidth=0)
+            seed_text = f"seed {seeds[0]}" if len(seeds) == 1 else f"mean of {len(seeds)} seeds"
+            (line,) = ax.plot(
+                steps, mean, marker="o", markersize=3, label=f"{algo.upper()}, {seed_text}"
+            )
+            if len(seeds) > 1:
+                ax.fill_between(
+                    steps,
+                    mean - std,
+                    mean + std,
+                    alpha=0.2,
+                    linewidth=0,
+                    color=line.get_color(),
+                    label=f"{algo.upper()}, +- 1 std across seeds",
+                )
             plotted = True
         if plotted:
-            ax.set_xlabel("env steps")
-            ax.set_ylabel("evaluation return (mean +- std across seeds)")
-            ax.set_title(env_id)
-            ax.legend(fontsize=8)
+            ax.set_xlabel(f"training steps ({step_unit(env_id)})")
+            ax.set_ylabel("periodic evaluation: mean episode return")
+            ax.set_title(f"{env_id}: learning curves")
+            ax.legend(
+                title="points: periodic evaluations",
+                title_fontsize=8,
+                loc="upper left",
+                bbox_to_anchor=(1.01, 1.0),
+                fontsize=8,
+            )
             fig.tight_layout()
             path = Path(out_dir) / f"learning_curve_{env_id.split('/')[-1]}.png"
             fig.savefig(path, dpi=120)
@@ -224,14 +248,23 @@ def write_results(sweep_dir: str | Path, plot: bool = True) -> str:
 
 
 def main(argv: list[str] | None = None) -> str:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("sweep_dir")
-    parser.add_argument("--no-plot", action="store_true")
+    parser = make_parser(__spec__.name if __spec__ else "agents.aggregate", __doc__)
+    parser.add_argument(
+        "sweep_dir", help="a sweep's folder, as agents.sweep writes it (runs/sweeps/<name>)"
+    )
+    parser.add_argument(
+        "--no-plot", action="store_true", help="skip the learning curves (learning_curve_*.png)"
+    )
     args = parser.parse_args(argv)
+    if not load_runs(args.sweep_dir):
+        raise ValueError(
+            f"sweep_dir {args.sweep_dir!r} holds no finished run (a folder with job.json and "
+            "evaluation/evaluation.json, as agents.sweep writes them)"
+        )
     text = write_results(args.sweep_dir, plot=not args.no_plot)
     print(text)
     return text
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_main(main))

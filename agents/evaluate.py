@@ -15,13 +15,19 @@ every episode depends on its seed alone: ``--workers`` spreads episodes over Ray
 the same results as a serial run. The script prints a markdown table and writes
 ``evaluation.json`` (strict JSON: NaN is written as ``null``) and ``error_vs_step.png`` to
 ``--out``.
+
+A model runs only on the id it was trained on (a primitive model also on its 6-D id, whose
+steps its primitives then drive) unless ``--force``; without a run config beside it, its
+algorithm comes from its zip, and an env whose spaces differ from the model's is refused.
 """
 
 from __future__ import annotations
 
-import argparse
+import contextlib
 import json
 import math
+import sys
+import zipfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -32,8 +38,10 @@ import yaml
 
 import tactile_gym
 
+from .cli import KEY_VALUE_HELP, KeyValue, make_parser, progress_bar, run_main
+from .plots import plot_errors
 from .scripted import executor_for, scripted_policy
-from .train import DEFAULT_ENV_ID, KeyValue, make_env, torch_threads, vecnormalize_path
+from .train import DEFAULT_ENV_ID, algorithm_class, make_env, torch_threads, vecnormalize_path
 
 #: Position error reported while there is no estimate, m (the task's E_max).
 NO_ESTIMATE_ERROR = 0.1
@@ -66,12 +74,21 @@ class ModelPolicy:
     """
 
     def __init__(self, path: str | Path, env: gym.Env) -> None:
-        from stable_baselines3 import PPO, SAC
         from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
         path = Path(path)
         run = model_run(path)
-        self.model = {"ppo": PPO, "sac": SAC}[run["algo"]].load(path, device="cpu")
+        self.model = algorithm_class(run["algo"]).load(path, device="cpu")
+        env_id = env.spec.id if env.spec else "this env"
+        for kind in ("observation", "action"):
+            trained, given = getattr(self.model, f"{kind}_space"), getattr(env, f"{kind}_space")
+            if trained != given:
+                raise ValueError(
+                    f"{path} was trained on {run['env_id'] or 'another id'}, whose {kind} "
+                    f"space differs from {env_id}'s ({_space_text(trained)} against "
+                    f"{_space_text(given)}); evaluate it on the id and env kwargs it was "
+                    "trained with"
+                )
         self.normalizer = None
         stats = run["vecnormalize"]
         if stats.exists():
@@ -126,10 +143,39 @@ class PrimitiveModelPolicy:
         return action.astype(np.float32)
 
 
+def _space_text(space: gym.Space) -> str:
+    """A space in a few words: its shape, or a Dict's keys and shapes."""
+    if isinstance(space, gym.spaces.Dict):
+        return "{" + ", ".join(f"{k}: {v.shape}" for k, v in space.spaces.items()) + "}"
+    return f"{type(space).__name__}{space.shape}"
+
+
 def is_primitive_model_on_6d(name: str, env_id: str) -> bool:
-    """Whether a model learned on a primitive id is to act on a 6-D id."""
-    trained_on = model_run(Path(name))["env_id"] or ""
-    return "Primitive" in trained_on and "Primitive" not in env_id
+    """Whether a model learned on a primitive id is to act on its 6-D id (the same task
+    with 6-D actions: ``HingeProbePrimitive-v1`` drives ``HingeProbe-v1``)."""
+    trained_on = _run_record(Path(name))["env_id"] or ""
+    return "Primitive" in trained_on and trained_on.replace("Primitive", "") == env_id
+
+
+def check_model_env(name: str, trained_on: str | None, env_id: str, force: bool) -> None:
+    """Refuse a model on an id other than the one it was trained on (or, for a primitive
+    model, its 6-D id), naming both; ``force`` turns that into a warning on stderr.
+
+    Raises:
+        ValueError: the ids differ and ``force`` is false.
+    """
+    if trained_on is None or trained_on == env_id or is_primitive_model_on_6d(name, env_id):
+        return
+    allowed = [trained_on]
+    if "Primitive" in trained_on:
+        allowed.append(trained_on.replace("Primitive", ""))
+    message = (
+        f"{name} was trained on {trained_on}, not {env_id}; evaluate it on "
+        f"{' or '.join(allowed)} (--env), or pass --force to run it on {env_id} anyway"
+    )
+    if not force:
+        raise ValueError(message)
+    print(f"warning: {message.split(';')[0]} (--force)", file=sys.stderr)
 
 
 @dataclass
@@ -180,10 +226,39 @@ def model_run(path: Path) -> dict[str, Any]:
     ``env_kwargs``, ``normalize`` and the ``vecnormalize`` statistics saved with the model.
 
     Reads ``agents.train``'s ``config.yml``, or an rl_zoo3 run (``<env>.zip`` beside the
-    ``<env>/`` folder of ``args.yml``, ``config.yml`` and ``vecnormalize.pkl``); defaults
-    (``ppo``, no env kwargs, no normalisation) when there is neither.
+    ``<env>/`` folder of ``args.yml``, ``config.yml`` and ``vecnormalize.pkl``); with neither,
+    the env id is unknown (``None``), there are no env kwargs and no normalisation, and the
+    algorithm is the one the model's zip names (:func:`saved_algo`).
     """
     path = Path(path)
+    run = _run_record(path)
+    return {**run, "algo": run["algo"] or saved_algo(path)}
+
+
+def saved_algo(path: Path) -> str:
+    """The algorithm of a stable-baselines3 model, from the policy class its zip stores.
+
+    Raises:
+        ValueError: the file is not a stable-baselines3 model of PPO or SAC.
+    """
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+        module = data["policy_class"]["__module__"]
+    except (OSError, KeyError, TypeError, ValueError, zipfile.BadZipFile) as error:
+        raise ValueError(f"{str(path)!r} is not a stable-baselines3 model ({error})") from error
+    if module.startswith("stable_baselines3.sac."):
+        return "sac"
+    if module in ("stable_baselines3.common.policies", "stable_baselines3.ppo.policies"):
+        return "ppo"
+    raise ValueError(
+        f"{str(path)!r} holds a policy of {module}; agents.evaluate runs PPO and SAC models"
+    )
+
+
+def _run_record(path: Path) -> dict[str, Any]:
+    """What the run folder says (``algo`` ``None`` without a run config); the model's file
+    is not opened."""
     run_dir = path.parent.parent if path.parent.name == "checkpoints" else path.parent
     zoo = [d for d in run_dir.iterdir() if (d / "args.yml").is_file()] if run_dir.is_dir() else []
     if (run_dir / "config.yml").exists() or len(zoo) != 1:
@@ -192,7 +267,7 @@ def model_run(path: Path) -> dict[str, Any]:
         hyper = record.get("hyperparameters") or {}
         return {
             "run_dir": run_dir,
-            "algo": record.get("algo", "ppo"),
+            "algo": record.get("algo"),
             "env_id": record.get("env_id"),
             "env_kwargs": dict(hyper.get("env_kwargs") or {}),
             "normalize": bool(hyper.get("normalize", False)),
@@ -204,7 +279,7 @@ def model_run(path: Path) -> dict[str, Any]:
     final = path.stem == params.name
     return {
         "run_dir": run_dir,
-        "algo": args.get("algo", "ppo"),
+        "algo": args.get("algo"),
         "env_id": args.get("env"),
         "env_kwargs": dict(args.get("env_kwargs") or hyper.get("env_kwargs") or {}),
         "normalize": bool(hyper.get("normalize", False)),
@@ -228,7 +303,7 @@ def policy_labels(names: list[str]) -> list[str]:
         if name in BUILTIN_POLICIES:
             return name
         path = Path(name)
-        run_dir = model_run(path)["run_dir"]
+        run_dir = _run_record(path)["run_dir"]
         inner = path.relative_to(run_dir).with_suffix("").as_posix()
         parents = run_dir.resolve().parts[-depth:]
         return "/".join([*parents, inner])
@@ -249,7 +324,10 @@ def policy_labels(names: list[str]) -> list[str]:
 
 
 def resolve_policies(
-    policies: list[str], env_id: str | None = None, env_kwargs: dict | None = None
+    policies: list[str],
+    env_id: str | None = None,
+    env_kwargs: dict | None = None,
+    force: bool = False,
 ) -> list[PolicySpec]:
     """Labels, env ids and env kwargs for each policy.
 
@@ -259,21 +337,31 @@ def resolve_policies(
             agree, else ``DEFAULT_ENV_ID``.
         env_kwargs: keywords that update each model's run ``env_kwargs`` (and are the only
             keywords of the built-in policies' env).
+        force: run models on an id other than their own (:func:`check_model_env`).
 
     Raises:
-        ValueError: an unknown policy or env id.
+        ValueError: an unknown policy or env id, a missing model, models trained on
+            different ids with no ``env_id``, or a model on another id than its own.
     """
     for name in policies:
         if name not in BUILTIN_POLICIES and not Path(name).is_file():
             raise ValueError(
-                f"policy must be one of {BUILTIN_POLICIES} or an existing model path, got {name!r}"
+                f"policy must be one of {BUILTIN_POLICIES} or an existing model path, got "
+                f"{name!r}" + (" (a folder)" if Path(name).is_dir() else " (no such file)")
             )
     runs = {name: model_run(Path(name)) for name in policies if name not in BUILTIN_POLICIES}
     if env_id is None:
         trained_on = {run["env_id"] for run in runs.values()} - {None}
-        env_id = trained_on.pop() if len(trained_on) == 1 else DEFAULT_ENV_ID
+        if len(trained_on) > 1:
+            raise ValueError(
+                f"the models were trained on different ids {sorted(trained_on)}; "
+                "choose the env with --env"
+            )
+        env_id = trained_on.pop() if trained_on else DEFAULT_ENV_ID
     if env_id not in tactile_gym.ENV_IDS:
         raise ValueError(f"env_id must be one of {tactile_gym.ENV_IDS}, got {env_id!r}")
+    for name, run in runs.items():
+        check_model_env(name, run["env_id"], env_id, force)
     specs = []
     for name, label in zip(policies, policy_labels(policies)):
         kwargs = dict(runs[name]["env_kwargs"]) if name in runs else {}
@@ -322,18 +410,30 @@ def run_episode(env: gym.Env, policy, seed: int) -> EpisodeRecord:
     )
 
 
-def run_episodes(spec: PolicySpec, seeds: list[int]) -> list[EpisodeRecord]:
+def run_episodes(spec: PolicySpec, seeds: list[int], progress=None) -> list[EpisodeRecord]:
     """Episodes of one policy on a fresh env (what a Ray worker runs for a chunk of seeds).
 
     Torch runs on one thread, so a model acts the same here and in any worker.
+
+    Args:
+        spec: the policy and its env.
+        seeds: one episode per seed.
+        progress: a progress bar whose ``update()`` is called after each episode.
     """
     env = make_env(spec.env_id, **spec.env_kwargs)
     try:
         policy = make_policy(spec.name, env)
-        if isinstance(policy, ModelPolicy):
-            with torch_threads(1):
-                return [run_episode(env, policy, s) for s in seeds]
-        return [run_episode(env, policy, s) for s in seeds]
+        records = []
+        with (
+            torch_threads(1)
+            if isinstance(policy, (ModelPolicy, PrimitiveModelPolicy))
+            else (contextlib.nullcontext())
+        ):
+            for seed in seeds:
+                records.append(run_episode(env, policy, seed))
+                if progress is not None:
+                    progress.update()
+        return records
     finally:
         env.close()
 
@@ -350,18 +450,40 @@ def chunks(seeds: list[int], n: int) -> list[list[int]]:
 
 
 def run_parallel(
-    specs: list[PolicySpec], seeds: list[int], workers: int, address: str | None = None
+    specs: list[PolicySpec],
+    seeds: list[int],
+    workers: int,
+    address: str | None = None,
+    progress=None,
 ) -> dict[str, list[EpisodeRecord]]:
     """Every policy's episodes spread over ``workers`` Ray tasks each (one CPU apiece),
     reassembled in seed order. Starts an embedded Ray unless one is running or ``address``
-    names a cluster."""
+    names a cluster. ``progress.update(n)`` hears of each finished chunk of ``n`` episodes;
+    a task's own error is raised as itself (a bad model is a ``ValueError``, as in a serial
+    run)."""
     from ._ray import ray_session
 
     with ray_session(address=address) as ray:
         remote = ray.remote(num_cpus=1)(run_episodes)
-        futures = {s.label: [remote.remote(s, c) for c in chunks(seeds, workers)] for s in specs}
+        parts = {
+            remote.remote(s, c): (s.label, k, len(c))
+            for s in specs
+            for k, c in enumerate(chunks(seeds, workers))
+        }
+        done: dict[tuple[str, int], list[EpisodeRecord]] = {}
+        pending = list(parts)
+        while pending:
+            ready, pending = ray.wait(pending, num_returns=1)
+            label, k, size = parts[ready[0]]
+            try:
+                done[label, k] = ray.get(ready[0])
+            except ray.exceptions.RayTaskError as error:
+                raise error.cause from None
+            if progress is not None:
+                progress.update(size)
         return {
-            label: [r for part in ray.get(refs) for r in part] for label, refs in futures.items()
+            s.label: [r for k in range(len(chunks(seeds, workers))) for r in done[s.label, k]]
+            for s in specs
         }
 
 
@@ -421,38 +543,6 @@ def markdown_table(summaries: dict[str, dict[str, float]]) -> str:
     return "\n".join([header, *rows])
 
 
-def plot_errors(records: dict[str, list[EpisodeRecord]], path: Path) -> None:
-    """Median and inter-quartile band of the position error against the step."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for name, recs in records.items():
-        length = max(len(r.position_error) for r in recs)
-        padded = (
-            np.array(
-                [
-                    r.position_error + [r.position_error[-1]] * (length - len(r.position_error))
-                    for r in recs
-                ]
-            )
-            * 1e3
-        )
-        steps = np.arange(length)
-        ax.plot(steps, np.median(padded, axis=0), label=name)
-        ax.fill_between(steps, *np.percentile(padded, [25, 75], axis=0), alpha=0.2, linewidth=0)
-    ax.set_xlabel("step")
-    ax.set_ylabel("axis position error (mm)")
-    ax.set_yscale("log")
-    ax.axhline(REACH_THRESHOLD * 1e3, color="grey", linestyle=":", linewidth=1)
-    ax.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
 def evaluate(
     policies: list[str],
     env_id: str | None = None,
@@ -463,6 +553,7 @@ def evaluate(
     plot: bool = True,
     workers: int = 1,
     address: str | None = None,
+    force: bool = False,
 ) -> dict[str, dict[str, float]]:
     """Evaluate each policy over the same seeded episodes; write JSON and a plot.
 
@@ -477,6 +568,7 @@ def evaluate(
         plot: write the error plot (needs matplotlib).
         workers: Ray tasks per policy; 1 runs everything in this process.
         address: a Ray cluster to join (``"auto"`` or ``host:port``); implies Ray.
+        force: run models on an id other than the one they were trained on.
 
     Returns:
         The summary of each policy, by label.
@@ -485,12 +577,16 @@ def evaluate(
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    specs = resolve_policies(policies, env_id, env_kwargs)
+    specs = resolve_policies(policies, env_id, env_kwargs, force)
     seeds = [seed + k for k in range(episodes)]
-    if workers > 1 or address:
-        records = run_parallel(specs, seeds, workers, address)
-    else:
-        records = {spec.label: run_episodes(spec, seeds) for spec in specs}
+    bar = progress_bar(len(specs) * episodes, "episodes", "episode")
+    try:
+        if workers > 1 or address:
+            records = run_parallel(specs, seeds, workers, address, bar)
+        else:
+            records = {spec.label: run_episodes(spec, seeds, bar) for spec in specs}
+    finally:
+        bar.close()
     summaries = {label: summarize(recs) for label, recs in records.items()}
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -504,21 +600,60 @@ def evaluate(
     }
     (out / "evaluation.json").write_text(json.dumps(json_safe(result), indent=1, allow_nan=False))
     if plot:
-        plot_errors(records, out / "error_vs_step.png")
+        # Models by algorithm too: a sweep's PPO and SAC runs share their folder names.
+        names = {
+            s.label: s.label
+            if s.name in BUILTIN_POLICIES
+            else f"{model_run(Path(s.name))['algo'].upper()} {s.label}"
+            for s in specs
+        }
+        shown = {names[label]: recs for label, recs in records.items()}
+        plot_errors(shown, out / "error_vs_step.png", specs[0].env_id, REACH_THRESHOLD)
     return summaries
 
 
 def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--policies", nargs="+", default=list(BUILTIN_POLICIES))
-    parser.add_argument("--env", default=None, help=f"one of {tactile_gym.ENV_IDS}")
-    parser.add_argument("--env-kwargs", nargs="+", action=KeyValue, default={})
-    parser.add_argument("--episodes", type=int, default=20)
-    parser.add_argument("--seed", type=int, default=1000)
-    parser.add_argument("--out", default="results/evaluation")
-    parser.add_argument("--workers", type=int, default=1, help="Ray tasks per policy")
-    parser.add_argument("--address", default=None, help="Ray cluster to join, e.g. auto")
-    parser.add_argument("--no-plot", action="store_true")
+    parser = make_parser(__spec__.name if __spec__ else "agents.evaluate", __doc__)
+    parser.add_argument(
+        "--policies",
+        nargs="+",
+        default=list(BUILTIN_POLICIES),
+        metavar="POLICY",
+        help="random (uniform actions), scripted (the scripted baseline) and/or paths of "
+        "models saved by agents.train or rl_zoo3 (e.g. runs/ppo/<run>/best_model.zip)",
+    )
+    parser.add_argument(
+        "--env",
+        default=None,
+        help=f"one of {', '.join(tactile_gym.ENV_IDS)}; default: the models' own id, "
+        f"else {DEFAULT_ENV_ID}",
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        action=KeyValue,
+        default={},
+        metavar="KEY:VALUE",
+        help="gym.make keywords over each model's run env_kwargs, e.g. max_steps:200; "
+        + KEY_VALUE_HELP,
+    )
+    parser.add_argument("--episodes", type=int, default=20, help="episodes per policy")
+    parser.add_argument(
+        "--seed", type=int, default=1000, help="seed of the first episode (then +1 each)"
+    )
+    parser.add_argument(
+        "--out", default="results/evaluation", help="folder of evaluation.json and the plot"
+    )
+    parser.add_argument(
+        "--workers", type=int, default=1, help="Ray tasks per policy (needs the sweep extra)"
+    )
+    parser.add_argument("--address", default=None, help="a Ray cluster to join (auto or host:port)")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="run models on an id other than the one they were trained on",
+    )
+    parser.add_argument("--no-plot", action="store_true", help="skip error_vs_step.png")
     args = parser.parse_args(argv)
     summaries = evaluate(
         args.policies,
@@ -530,6 +665,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
         plot=not args.no_plot,
         workers=args.workers,
         address=args.address,
+        force=args.force,
     )
     data = json.loads((Path(args.out) / "evaluation.json").read_text())
     last = args.seed + args.episodes - 1
@@ -540,4 +676,4 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_main(main))

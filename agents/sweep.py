@@ -11,11 +11,15 @@ seeds, the training budgets, the held-out evaluation (seed, episodes, which mode
 declares ``cpus_per_job`` CPUs (``agents.train`` sizes its vec env and torch threads to them).
 
 Jobs write to ``<log_folder>/<sweep name>/<algo>/<env>_s<seed>/``: ``job.json`` (the job's
-settings), ``job.log`` (its output), the run (``config.yml``, models, ``eval/``, TensorBoard
-logs) and ``evaluation/evaluation.json``. A job whose folder holds an evaluation made with
-the same settings is finished and is not run again, so rerunning a sweep resumes it. A job
-that fails is retried once, then reported with its error (``error.txt`` in its folder); the
-sweep goes on with the others and exits with status 1. The sweep folder gets ``results.md``
+settings), ``job.log`` (its output as it goes: env steps and ETA every 30 s), the run
+(``config.yml``, models, ``eval/``, TensorBoard logs) and ``evaluation/evaluation.json``. A job
+whose folder holds an evaluation made with the same settings is finished and is not run again,
+so rerunning a sweep resumes it; a job interrupted after a checkpoint (``checkpoint_freq``)
+continues from it (SAC with an empty replay buffer: checkpoints do not keep it). The
+hyperparameters and env kwargs are checked before anything starts (``--dry-run`` too). A job
+that fails is retried once unless it failed on bad input (a ``ValueError``: it would fail the
+same way again), then reported with its error (``error.txt`` in its folder); the sweep goes on
+with the others and exits with status 1. The sweep folder gets ``results.md``
 and ``results.json`` (:mod:`agents.aggregate`) and ``learning_curve_<env>.png``.
 
 With ``--address`` from a repository checkout, the ``agents`` package is shipped to the
@@ -26,7 +30,6 @@ driver reads the runs' folders to resume, to show which jobs run and to aggregat
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import shutil
@@ -43,7 +46,8 @@ import yaml
 import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
 
-from .train import ALGOS, load_hyperparameters
+from .cli import EXPECTED_ERRORS, make_parser, run_main
+from .train import ALGOS, check_hyperparameters, latest_checkpoint, load_hyperparameters, make_env
 
 SWEEP_KEYS = {
     "name": "folder name of the sweep (default: the file's stem)",
@@ -163,14 +167,20 @@ def expand(config: dict[str, Any]) -> list[Job]:
 
     Each job carries its complete hyperparameters (the training YAML read here, then the
     sweep's overrides), so that workers do not depend on their own copy of the YAML and a
-    changed YAML shows up as changed settings when a sweep resumes.
+    changed YAML shows up as changed settings when a sweep resumes. The hyperparameters and
+    env kwargs are checked here, so that ``--dry-run`` catches a typo before any job starts.
+
+    Raises:
+        ValueError: an unknown hyperparameter or env keyword, naming it.
     """
     jobs = []
     config_path = config["train"].get("config_path")
     for env_id in config["env_ids"]:
+        check_env_kwargs(env_id, config["env_kwargs"])
         for algo in config["algos"]:
             hyperparams = load_hyperparameters(algo, env_id, config_path)
             hyperparams.update(config["overrides"].get(algo) or {})
+            check_hyperparameters(algo, hyperparams)
             budget = config.get("budgets")
             budget = budget.get(algo) if isinstance(budget, dict) else budget
             for seed in config["seeds"]:
@@ -190,14 +200,20 @@ def expand(config: dict[str, Any]) -> list[Job]:
     return jobs
 
 
+def check_env_kwargs(env_id: str, env_kwargs: dict) -> None:
+    """Make and close the env once: a bad keyword raises its ``ValueError`` here."""
+    make_env(env_id, **env_kwargs).close()
+
+
 def job_state(job: Job, run_dir: Path) -> str:
     """``"finished"`` (an evaluation made with these settings), ``"conflict"`` (an
-    evaluation made with other settings) or ``"todo"``."""
+    evaluation made with other settings), ``"resume"`` (an interrupted attempt at this job,
+    with a checkpoint) or ``"todo"``."""
     try:
         record = json.loads((run_dir / "job.json").read_text())
         json.loads((run_dir / "evaluation" / "evaluation.json").read_text())
     except (OSError, ValueError):
-        return "todo"
+        return "resume" if _same_job(job, run_dir) and latest_checkpoint(run_dir) else "todo"
     return "finished" if record.get("spec") == _jsonable(job.spec()) else "conflict"
 
 
@@ -206,7 +222,11 @@ def _jsonable(value):
 
 
 def run_job(job: Job, run_dir: str, token: str) -> dict:
-    """Train and evaluate one job in ``run_dir`` (emptied first); what each Ray task runs.
+    """Train and evaluate one job in ``run_dir``; what each Ray task runs.
+
+    A folder left by an interrupted attempt at the same job resumes from its latest
+    checkpoint (:func:`agents.train.latest_checkpoint`); any other is emptied first. The
+    output goes to ``job.log`` line by line: a progress line every 30 s while training.
 
     Returns:
         The evaluation summary of the job's model.
@@ -215,17 +235,20 @@ def run_job(job: Job, run_dir: str, token: str) -> dict:
     from .train import train
 
     run_dir = Path(run_dir)
-    if run_dir.exists():
+    resume = _same_job(job, run_dir) and latest_checkpoint(run_dir) is not None
+    if run_dir.exists() and not resume:
         shutil.rmtree(run_dir)
-    run_dir.mkdir(parents=True)
+    run_dir.mkdir(parents=True, exist_ok=True)
     record = {"spec": job.spec(), "token": token, "started": time.time(), **job.spec()}
     (run_dir / "job.json").write_text(json.dumps(record, indent=1))
+    (run_dir / "error.txt").unlink(missing_ok=True)
     train_args = {k: v for k, v in job.train.items() if k != "config_path"}  # in hyperparams
     with (
-        open(run_dir / "job.log", "w") as log,
+        open(run_dir / "job.log", "a" if resume else "w", buffering=1) as log,
         contextlib.redirect_stdout(log),
         contextlib.redirect_stderr(log),
     ):
+        print(f"job {job.key}: {job.algo} on {job.env_id}, seed {job.seed}", flush=True)
         train(
             algo=job.algo,
             env_id=job.env_id,
@@ -236,9 +259,11 @@ def run_job(job: Job, run_dir: str, token: str) -> dict:
             n_cpus=max(1, int(job.cpus)),
             run_dir=run_dir,
             command=f"python -m agents.sweep (job {job.key})",
+            resume=resume,
             **train_args,
         )
         evaluation = job.evaluation
+        print(f"evaluating {evaluation['model']} on {evaluation['episodes']} episodes", flush=True)
         summaries = evaluate(
             [str(run_dir / f"{evaluation['model']}.zip")],
             env_id=job.env_id,
@@ -246,22 +271,32 @@ def run_job(job: Job, run_dir: str, token: str) -> dict:
             seed=int(evaluation["seed"]),
             out=run_dir / "evaluation",
         )
+        print("done", flush=True)
     (summary,) = summaries.values()
     return summary
 
 
+def _same_job(job: Job, run_dir: Path) -> bool:
+    try:
+        record = json.loads((run_dir / "job.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return record.get("spec") == _jsonable(job.spec())
+
+
 class Progress:
-    """Counts of the sweep's jobs, printed as one line when they change (and every
-    ``interval`` seconds)."""
+    """Counts of the sweep's jobs, printed as one line when they change; every ``interval``
+    seconds, also each running job's last line of ``job.log`` (its env steps and ETA)."""
 
     def __init__(self, name: str, total: int, finished: int, interval: float = 30.0, out=None):
         self.name, self.total, self.interval = name, total, interval
         self.counts = {"done": finished, "running": 0, "queued": 0, "failed": 0}
         self.out = out or sys.stdout
         self.start = time.monotonic()
-        self._last_line, self._last_time = None, 0.0
+        self._last_line, self._last_time = None, time.monotonic()
 
-    def update(self, **counts) -> None:
+    def update(self, jobs: dict[str, Path] | None = None, **counts) -> None:
+        """New counts; ``jobs`` maps each running job to its folder."""
         self.counts.update(counts)
         c = self.counts
         line = (
@@ -269,10 +304,30 @@ class Progress:
             f"{c['queued']} queued, {c['failed']} failed"
         )
         now = time.monotonic()
-        if line != self._last_line or now - self._last_time >= self.interval:
+        periodic = now - self._last_time >= self.interval
+        if line != self._last_line or periodic:
             elapsed = int(now - self.start)
             print(f"{line} ({elapsed // 60:02d}:{elapsed % 60:02d})", file=self.out, flush=True)
             self._last_line, self._last_time = line, now
+            if periodic:
+                for key, run_dir in (jobs or {}).items():
+                    print(f"  {key}: {_last_line(run_dir / 'job.log')}", file=self.out, flush=True)
+
+
+def _last_line(path: Path) -> str:
+    try:
+        lines = path.read_text().strip().splitlines()
+    except OSError:
+        return "starting"
+    return lines[-1] if lines else "starting"
+
+
+def worth_retrying(error: BaseException) -> bool:
+    """Whether a job's error (Ray's wrapper, with the job's own error as ``cause``) may go
+    away on a second attempt: bad input (:data:`agents.cli.EXPECTED_ERRORS`) fails the same
+    way every time; a worker's death, a full disk or a race may not."""
+    cause = getattr(error, "cause", None) or error
+    return not isinstance(cause, EXPECTED_ERRORS)
 
 
 def _error_text(error: BaseException) -> tuple[str, str]:
@@ -334,7 +389,7 @@ def run_sweep(
             "give the sweep another name (or log_folder), or delete those runs"
         )
     skipped = [j.key for j in jobs if states[j.key] == "finished"]
-    todo = [j for j in jobs if states[j.key] == "todo"]
+    todo = [j for j in jobs if states[j.key] in ("todo", "resume")]
     if dry_run:
         for job in jobs:
             print(f"{states[job.key]:>8}  {job.key}  ({job.n_timesteps} steps)", file=out)
@@ -388,7 +443,7 @@ def _run_jobs(todo, sweep_dir, config, address, num_cpus, retries, progress):
                         done.append(job.key)
                     except Exception as error:  # a job's own error, or its worker's death
                         line, full = _error_text(error)
-                        if attempts[job.key] <= retries:
+                        if attempts[job.key] <= retries and worth_retrying(error):
                             print(f"job {job.key} failed ({line}); retrying", file=out)
                             pending[submit(job)] = job
                         else:
@@ -396,11 +451,16 @@ def _run_jobs(todo, sweep_dir, config, address, num_cpus, retries, progress):
                             run_dir = sweep_dir / job.key
                             run_dir.mkdir(parents=True, exist_ok=True)
                             (run_dir / "error.txt").write_text(full)
-                running = sum(_started(sweep_dir / j.key, token) for j in pending.values())
+                running = {
+                    j.key: sweep_dir / j.key
+                    for j in pending.values()
+                    if _started(sweep_dir / j.key, token)
+                }
                 progress.update(
+                    running,  # the jobs
                     done=finished_before + len(done),
-                    running=running,
-                    queued=len(pending) - running,
+                    running=len(running),
+                    queued=len(pending) - len(running),
                     failed=len(failed),
                 )
         except KeyboardInterrupt:
@@ -423,27 +483,47 @@ def _started(run_dir: Path, token: str) -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("sweep", help="a sweep YAML path or a preset name (configs/sweeps/)")
-    parser.add_argument("--address", default=None, help="Ray cluster to join, e.g. auto")
-    parser.add_argument("--num-cpus", type=int, default=None, help="CPUs of an embedded Ray")
-    parser.add_argument("--log-folder", default=None)
-    parser.add_argument("--retries", type=int, default=1)
-    parser.add_argument("--dry-run", action="store_true")
+    parser = make_parser(__spec__.name if __spec__ else "agents.sweep", __doc__)
+    parser.add_argument(
+        "sweep",
+        help="a sweep YAML path or the name of one in configs/sweeps/ (e.g. smoke)",
+    )
+    parser.add_argument(
+        "--address",
+        default=None,
+        help="a Ray cluster to join (auto or host:port); default: an embedded Ray",
+    )
+    parser.add_argument(
+        "--num-cpus",
+        type=int,
+        default=None,
+        help="CPUs of the embedded Ray; default: all of this machine's",
+    )
+    parser.add_argument(
+        "--log-folder", default=None, help="parent of the sweep folder; default: the file's"
+    )
+    parser.add_argument(
+        "--retries",
+        type=int,
+        default=1,
+        help="further attempts of a job that failed for another reason than bad input",
+    )
+    parser.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="check the file and list the jobs with their state; run nothing (no Ray needed)",
+    )
     args = parser.parse_args(argv)
-    try:
-        report = run_sweep(
-            args.sweep,
-            address=args.address,
-            num_cpus=args.num_cpus,
-            log_folder=args.log_folder,
-            retries=args.retries,
-            dry_run=args.dry_run,
-        )
-    except KeyboardInterrupt:
-        return 130
+    report = run_sweep(
+        args.sweep,
+        address=args.address,
+        num_cpus=args.num_cpus,
+        log_folder=args.log_folder,
+        retries=args.retries,
+        dry_run=args.dry_run,
+    )
     return 1 if report.failed else 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main))

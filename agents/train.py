@@ -13,28 +13,40 @@ the arguments and the command line (``config.yml``), TensorBoard logs, the perio
 (``best_model.zip``), the final model (``final_model.zip``) and, with normalisation, the
 ``VecNormalize`` statistics saved with each model (see :func:`vecnormalize_path`).
 
+The hyperparameters are checked against the algorithm's constructor and the envs are made
+before the run folder is (:func:`check_hyperparameters`): a typo fails at once and leaves
+nothing behind. A run that fails later leaves no folder if it saved no model, else a
+``failed.txt`` saying why; an interrupted run with checkpoints can continue from the latest
+(``train(..., run_dir=..., resume=True)``, what ``agents.sweep`` does).
+
 The envs run in this process (``DummyVecEnv``) unless every env worker can have a core of its
 own beside the learner (:func:`choose_vec_env`); ``--vec-env`` overrides that choice.
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import copy
+import difflib
 import functools
+import inspect
+import math
 import os
 import shlex
+import shutil
 import sys
 import time
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import yaml
 
 import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
+
+from .cli import KEY_VALUE_HELP, KeyValue, make_parser, quiet_c_output, require, run_main
 
 ALGOS = ("ppo", "sac")
 VEC_ENVS = ("auto", "dummy", "subproc")
@@ -57,17 +69,38 @@ ZOO_ONLY_KEYS = (
 #: faster on one thread than on two, and 1.06x on 2 quiet cores (benchmarks/bench_train.py);
 #: extra threads mostly wait on each other and on the envs.
 DEFAULT_TORCH_THREADS = 1
+#: Constructor arguments of the algorithm that agents.train sets from its own arguments.
+SET_BY_TRAIN = ("env", "seed", "device", "tensorboard_log", "verbose", "_init_setup_model")
 #: Hyperparameters that take rl_zoo3's ``"lin_<value>"`` linear schedules.
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
 
 
 def make_env(env_id: str, **env_kwargs):
-    """``gym.make`` after importing tactile_gym, so that worker processes know the ids."""
-    import gymnasium as gym
+    """``gym.make`` after importing tactile_gym, so that worker processes know the ids.
 
+    The env connects to PyBullet on its first reset, and PyBullet prints "argv[0]=" from C
+    when it connects; :class:`QuietFirstReset` keeps that line out of the output.
+    """
     import tactile_gym  # noqa: F401 - registers the envs in this process
 
-    return gym.make(env_id, **env_kwargs)
+    return QuietFirstReset(gym.make(env_id, **env_kwargs))
+
+
+class QuietFirstReset(gym.Wrapper):
+    """The env, its first ``reset`` run with C's stdout silenced
+    (:func:`agents.cli.quiet_c_output`)."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        self._connected = False
+
+    def reset(self, **kwargs):
+        if self._connected:
+            return self.env.reset(**kwargs)
+        with quiet_c_output():
+            result = self.env.reset(**kwargs)
+        self._connected = True
+        return result
 
 
 def available_cpus() -> int:
@@ -206,7 +239,42 @@ def resolve_config(
     for key in ("policy_kwargs", "env_kwargs"):
         if not isinstance(config.get(key) or {}, dict):
             raise ValueError(f"{key} must be a mapping, got {config[key]!r}")
+    check_hyperparameters(algo, config)
     return config
+
+
+def algorithm_class(algo: str) -> type:
+    """The stable-baselines3 class of ``algo``."""
+    if algo not in ALGOS:
+        raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
+    sb3 = require("stable_baselines3", "train")
+    return {"ppo": sb3.PPO, "sac": sb3.SAC}[algo]
+
+
+def check_hyperparameters(algo: str, config: Mapping[str, Any]) -> None:
+    """Check the config's keys against the algorithm's constructor, before anything runs.
+
+    Raises:
+        ValueError: a key that is neither a run key (:data:`RUN_KEYS`) nor an argument of the
+            algorithm, naming it, the closest allowed key and all of them; a key that
+            ``agents.train`` sets from its own arguments (:data:`SET_BY_TRAIN`); or a
+            schedule that is not ``lin_<number>``.
+    """
+    parameters = inspect.signature(algorithm_class(algo).__init__).parameters
+    allowed = sorted((set(parameters) - {"self", "policy", *SET_BY_TRAIN}) | set(RUN_KEYS))
+    for key in config:
+        if key in SET_BY_TRAIN:
+            raise ValueError(
+                f"hyperparameter {key!r} is set by agents.train's own arguments "
+                "(--seed, --device, --log-folder); remove it from the hyperparameters"
+            )
+        if key not in allowed:
+            close = difflib.get_close_matches(key, allowed, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ValueError(
+                f"unknown {algo} hyperparameter {key!r}{hint}; allowed: {', '.join(allowed)}"
+            )
+    algo_kwargs(config)  # checks the values of rl_zoo3's forms (schedules)
 
 
 def _linear_schedule(initial: float):
@@ -267,6 +335,7 @@ def train(
     device: str = "cpu",
     run_dir: str | Path | None = None,
     command: str | None = None,
+    resume: bool = False,
 ) -> Path:
     """Train one agent and return its run folder.
 
@@ -285,7 +354,8 @@ def train(
             once; 0 disables them.
         eval_episodes: episodes per evaluation.
         checkpoint_freq: env steps (summed over envs) between checkpoints; 0 disables them.
-        progress_bar: show a progress bar (needs tqdm and rich).
+        progress_bar: show a progress bar (needs tqdm and rich); without it, a line every
+            30 s (:func:`progress_lines`).
         vec_env: ``"auto"`` (:func:`choose_vec_env`), ``"subproc"`` (one process per env)
             or ``"dummy"`` (all in this process).
         n_cpus: cores the run may use; defaults to this process's CPU affinity.
@@ -294,8 +364,12 @@ def train(
         run_dir: the run folder to use (created if absent; it must not hold a run already)
             instead of a fresh one under ``log_folder``.
         command: the command line to record; defaults to ``sys.argv``.
+        resume: with a ``run_dir`` that holds an interrupted run, continue it from its
+            latest checkpoint (:func:`latest_checkpoint`) instead of refusing.
+
+    A run that fails leaves no folder if it made no model, else a ``failed.txt`` in it.
     """
-    from stable_baselines3 import PPO, SAC
+    require("stable_baselines3", "train")
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
@@ -313,12 +387,26 @@ def train(
     resolved_vec_env = choose_vec_env(n_envs, n_cpus) if vec_env == "auto" else vec_env
     n_threads = int(n_threads or DEFAULT_TORCH_THREADS)
 
+    run_env_kwargs = dict(config.get("env_kwargs") or {})
+    vec_cls = SubprocVecEnv if resolved_vec_env == "subproc" and n_envs > 1 else DummyVecEnv
+    factory = functools.partial(make_env, env_id, **run_env_kwargs)
+    # The envs first: a bad env keyword fails here, before a run folder exists.
+    eval_env = make_vec_env(factory, n_envs=1, seed=seed + 10_000)
+    env = make_vec_env(factory, n_envs=n_envs, seed=seed, vec_env_cls=vec_cls)
+
+    checkpoint = None
     if run_dir is None:
         run_dir = make_run_dir(Path(log_folder), algo, env_id, seed)
+        created = True
     else:
         run_dir = Path(run_dir)
+        created = not run_dir.exists()
         if (run_dir / "config.yml").exists():
-            raise ValueError(f"run_dir {str(run_dir)!r} already holds a run (config.yml)")
+            checkpoint = latest_checkpoint(run_dir) if resume else None
+            if checkpoint is None:
+                env.close()
+                eval_env.close()
+                raise ValueError(f"run_dir {str(run_dir)!r} already holds a run (config.yml)")
         run_dir.mkdir(parents=True, exist_ok=True)
     record = {
         "algo": algo,
@@ -339,26 +427,26 @@ def train(
         "resources": {"n_cpus": n_cpus, "vec_env": resolved_vec_env, "torch_threads": n_threads},
         "hyperparameters": config,
     }
-    with open(run_dir / "config.yml", "w") as f:
-        yaml.safe_dump(record, f, sort_keys=False)
+    if checkpoint is not None:
+        record["resumed_from"] = checkpoint.relative_to(run_dir).as_posix()
+        (run_dir / "failed.txt").unlink(missing_ok=True)
+    try:
+        with open(run_dir / "config.yml", "w") as f:
+            yaml.safe_dump(record, f, sort_keys=False)
+        normalize = config.get("normalize", False)
+        if normalize:
+            normalize_kwargs = normalize if isinstance(normalize, dict) else {}
+            normalize_kwargs = {"gamma": config.get("gamma", 0.99), **normalize_kwargs}
+            if checkpoint is not None:
+                env = VecNormalize.load(str(vecnormalize_path(checkpoint)), env)
+            else:
+                env = VecNormalize(env, **normalize_kwargs)
+            eval_kwargs = {k: v for k, v in normalize_kwargs.items() if k != "norm_reward"}
+            eval_env = VecNormalize(eval_env, training=False, norm_reward=False, **eval_kwargs)
 
-    run_env_kwargs = dict(config.get("env_kwargs") or {})
-    vec_cls = SubprocVecEnv if resolved_vec_env == "subproc" and n_envs > 1 else DummyVecEnv
-    factory = functools.partial(make_env, env_id, **run_env_kwargs)
-    env = make_vec_env(factory, n_envs=n_envs, seed=seed, vec_env_cls=vec_cls)
-    eval_env = make_vec_env(factory, n_envs=1, seed=seed + 10_000)
-    normalize = config.get("normalize", False)
-    if normalize:
-        normalize_kwargs = normalize if isinstance(normalize, dict) else {}
-        normalize_kwargs = {"gamma": config.get("gamma", 0.99), **normalize_kwargs}
-        env = VecNormalize(env, **normalize_kwargs)
-        eval_kwargs = {k: v for k, v in normalize_kwargs.items() if k != "norm_reward"}
-        eval_env = VecNormalize(eval_env, training=False, norm_reward=False, **eval_kwargs)
-
-    callbacks = []
-    if eval_freq > 0:
-        callbacks.append(
-            EvalCallback(
+        callbacks = [] if progress_bar else [progress_lines(total_steps)]
+        if eval_freq > 0:
+            evaluation = EvalCallback(
                 eval_env,
                 n_eval_episodes=eval_episodes,
                 eval_freq=max(min(eval_freq, total_steps) // n_envs, 1),
@@ -371,69 +459,213 @@ def train(
                 if normalize
                 else None,
             )
-        )
-    if checkpoint_freq > 0:
-        callbacks.append(
-            CheckpointCallback(
-                save_freq=max(checkpoint_freq // n_envs, 1),
-                save_path=str(run_dir / "checkpoints"),
-                save_vecnormalize=True,
+            if checkpoint is not None:
+                _continue_evaluations(evaluation, run_dir / "eval" / "evaluations.npz")
+            callbacks.append(evaluation)
+        if checkpoint_freq > 0:
+            callbacks.append(
+                CheckpointCallback(
+                    save_freq=max(checkpoint_freq // n_envs, 1),
+                    save_path=str(run_dir / "checkpoints"),
+                    save_vecnormalize=True,
+                )
             )
-        )
-    try:
         with torch_threads(n_threads):
-            model = {"ppo": PPO, "sac": SAC}[algo](
-                config["policy"],
-                env,
-                seed=seed,
-                device=device,
-                tensorboard_log=str(run_dir / "tensorboard"),
-                verbose=0,
-                **algo_kwargs(config),
+            if checkpoint is not None:
+                model = algorithm_class(algo).load(checkpoint, env=env, device=device)
+                print(f"resuming from {checkpoint} at {model.num_timesteps} env steps", flush=True)
+            else:
+                model = _construct(algo, config, env, seed, device, run_dir)
+            model.learn(
+                total_timesteps=total_steps - model.num_timesteps,
+                callback=callbacks,
+                progress_bar=progress_bar,
+                reset_num_timesteps=checkpoint is None,
             )
-            model.learn(total_timesteps=total_steps, callback=callbacks, progress_bar=progress_bar)
         model.save(run_dir / "final_model")
         if isinstance(env, VecNormalize):
             env.save(str(vecnormalize_path(run_dir / "final_model.zip")))
+    except BaseException as error:
+        _mark_failed(run_dir, created, error)
+        raise
     finally:
         env.close()
         eval_env.close()
     return run_dir
 
 
-class KeyValue(argparse.Action):
-    """``key:value`` pairs into a dict; each value is read as YAML (``3e-4``, ``[64, 64]``,
-    ``flat``, ``{a: 1}``), like rl_zoo3's ``--env-kwargs``/``--hyperparams`` without eval."""
+def _construct(algo: str, config: Mapping[str, Any], env, seed: int, device: str, run_dir: Path):
+    """The algorithm built from the config; a value it rejects is a ``ValueError`` naming the
+    hyperparameters (stable-baselines3 checks values with ``assert`` and by using them)."""
+    kwargs = algo_kwargs(config)
+    try:
+        return algorithm_class(algo)(
+            config["policy"],
+            env,
+            seed=seed,
+            device=device,
+            tensorboard_log=str(run_dir / "tensorboard"),
+            verbose=0,
+            **kwargs,
+        )
+    except (TypeError, AssertionError, KeyError) as error:
+        shown = {k: config[k] for k in kwargs}
+        raise ValueError(
+            f"{algo} rejected policy {config['policy']!r} with the hyperparameters {shown}: {error}"
+        ) from error
 
-    def __call__(self, parser, namespace, values, option_string=None):
-        pairs = {}
-        for item in values:
-            key, sep, value = item.partition(":")
-            if not sep or not key:
-                raise argparse.ArgumentError(self, f"expected key:value, got {item!r}")
-            pairs[key] = yaml.safe_load(value)
-        setattr(namespace, self.dest, pairs)
+
+def latest_checkpoint(run_dir: str | Path) -> Path | None:
+    """The run's checkpoint with the most env steps (``checkpoints/rl_model_<n>_steps.zip``),
+    or ``None``."""
+    found = []
+    for path in Path(run_dir).glob("checkpoints/rl_model_*_steps.zip"):
+        steps = path.stem.removeprefix("rl_model_").removesuffix("_steps")
+        if steps.isdigit():
+            found.append((int(steps), path))
+    return max(found)[1] if found else None
+
+
+def _continue_evaluations(callback, log: Path) -> None:
+    """Give a resumed run's ``EvalCallback`` the evaluations made before the interruption,
+    so that its log and its best model carry on rather than start again."""
+    import numpy as np
+
+    if not log.exists():
+        return
+    with np.load(log) as data:
+        callback.evaluations_timesteps = data["timesteps"].tolist()
+        callback.evaluations_results = data["results"].tolist()
+        callback.evaluations_length = data["ep_lengths"].tolist()
+    if callback.evaluations_results:
+        callback.best_mean_reward = float(np.max(np.mean(callback.evaluations_results, axis=1)))
+
+
+def _mark_failed(run_dir: Path, created: bool, error: BaseException) -> None:
+    """A run folder this run made and that holds no model is removed; any other gets
+    ``failed.txt``, saying why the run stopped."""
+    if created and not any(run_dir.rglob("*.zip")):
+        shutil.rmtree(run_dir, ignore_errors=True)
+        with contextlib.suppress(OSError):  # the algo's folder, if this run was its first
+            run_dir.parent.rmdir()
+        return
+    reason = "interrupted" if isinstance(error, KeyboardInterrupt) else repr(error)
+    (run_dir / "failed.txt").write_text(f"{reason}\n")
+
+
+def progress_lines(total_steps: int, interval: float = 30.0):
+    """A stable-baselines3 callback that prints env steps done of ``total_steps``, the time
+    elapsed and an ETA, at most every ``interval`` seconds and at the end: progress for a
+    log (a sweep's ``job.log``), where a progress bar would be noise."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class ProgressLines(BaseCallback):
+        def _on_training_start(self) -> None:
+            self.first = self.num_timesteps
+            self.start = self.last = time.monotonic()
+
+        def _on_step(self) -> bool:
+            now, done = time.monotonic(), self.num_timesteps
+            if now - self.last >= interval or done >= total_steps:
+                self.last = now
+                rate = (done - self.first) / max(now - self.start, 1e-9)
+                eta = (total_steps - done) / rate if rate > 0 else math.inf
+                print(
+                    f"{done}/{total_steps} env steps ({100 * done / total_steps:.0f} %), "
+                    f"{clock(now - self.start)} elapsed, ETA {clock(eta)}",
+                    flush=True,
+                )
+            return True
+
+    return ProgressLines()
+
+
+def clock(seconds: float) -> str:
+    """``h:mm:ss``, or ``-`` where unknown."""
+    if not math.isfinite(seconds):
+        return "-"
+    seconds = int(seconds)
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
 
 
 def main(argv: list[str] | None = None) -> Path:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--algo", choices=ALGOS, default="ppo")
+    parser = make_parser(__spec__.name if __spec__ else "agents.train", __doc__)
+    parser.add_argument("--algo", choices=ALGOS, default="ppo", help="the algorithm")
     parser.add_argument("--env", default=DEFAULT_ENV_ID, help=f"one of {tactile_gym.ENV_IDS}")
-    parser.add_argument("--n-timesteps", type=int, default=None)
-    parser.add_argument("--n-envs", type=int, default=None)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--log-folder", default="runs")
-    parser.add_argument("--config", default=None, help="preset name or YAML path")
-    parser.add_argument("--hyperparams", nargs="+", action=KeyValue, default={})
-    parser.add_argument("--env-kwargs", nargs="+", action=KeyValue, default={})
-    parser.add_argument("--eval-freq", type=int, default=10_000)
-    parser.add_argument("--eval-episodes", type=int, default=5)
-    parser.add_argument("--checkpoint-freq", type=int, default=50_000)
-    parser.add_argument("--vec-env", choices=VEC_ENVS, default="auto")
-    parser.add_argument("--n-cpus", type=int, default=None, help="cores the run may use")
-    parser.add_argument("--torch-threads", type=int, default=None)
-    parser.add_argument("--device", default="cpu")
-    parser.add_argument("--no-progress-bar", action="store_true")
+    parser.add_argument(
+        "--n-timesteps",
+        type=int,
+        default=None,
+        help="total env steps (primitives on the primitive ids, control steps on the others); "
+        "default: the config's n_timesteps",
+    )
+    parser.add_argument(
+        "--n-envs", type=int, default=None, help="parallel envs; default: the config's n_envs"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seeds the envs and the algorithm")
+    parser.add_argument(
+        "--log-folder",
+        default="runs",
+        help="the run goes to <log-folder>/<algo>/<env>_s<seed>_<time>",
+    )
+    parser.add_argument(
+        "--config",
+        default=None,
+        help="hyperparameter YAML: a preset name of configs/train/ or a path; "
+        "default: configs/train/<algo>.yml",
+    )
+    parser.add_argument(
+        "--hyperparams",
+        nargs="+",
+        action=KeyValue,
+        default={},
+        metavar="KEY:VALUE",
+        help="hyperparameters over the config's (arguments of the algorithm, or policy, "
+        f"n_timesteps, n_envs, normalize), e.g. n_steps:256 learning_rate:1e-4; {KEY_VALUE_HELP}",
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        action=KeyValue,
+        default={},
+        metavar="KEY:VALUE",
+        help="gym.make keywords over the config's env_kwargs, e.g. observation_mode:flat "
+        f"skin:{{friction: 0.3}}; {KEY_VALUE_HELP}",
+    )
+    parser.add_argument(
+        "--eval-freq",
+        type=int,
+        default=10_000,
+        help="env steps between periodic evaluations (they pick best_model.zip); 0: none",
+    )
+    parser.add_argument(
+        "--eval-episodes", type=int, default=5, help="episodes per periodic evaluation"
+    )
+    parser.add_argument(
+        "--checkpoint-freq", type=int, default=50_000, help="env steps between checkpoints; 0: none"
+    )
+    parser.add_argument(
+        "--vec-env",
+        choices=VEC_ENVS,
+        default="auto",
+        help="subproc: one process per env; dummy: all in this process; auto: subproc only "
+        "when every env gets a core of its own beside the learner",
+    )
+    parser.add_argument(
+        "--n-cpus", type=int, default=None, help="cores the run may use; default: all it may"
+    )
+    parser.add_argument(
+        "--torch-threads",
+        type=int,
+        default=None,
+        help=f"torch threads of the learner; default: {DEFAULT_TORCH_THREADS}",
+    )
+    parser.add_argument("--device", default="cpu", help="torch device (cpu, cuda, auto)")
+    parser.add_argument(
+        "--no-progress-bar",
+        action="store_true",
+        help="print a progress line every 30 s instead of a progress bar",
+    )
     args = parser.parse_args(argv)
     run_dir = train(
         algo=args.algo,
@@ -453,11 +685,11 @@ def main(argv: list[str] | None = None) -> Path:
         n_cpus=args.n_cpus,
         n_threads=args.torch_threads,
         device=args.device,
-        command=shlex.join(["python", "-m", __spec__.name, *(argv or sys.argv[1:])]),
+        command=shlex.join(["python", "-m", parser.prog.split()[-1], *(argv or sys.argv[1:])]),
     )
     print(f"run saved in {run_dir}")
     return run_dir
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_main(main))

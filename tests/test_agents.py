@@ -88,6 +88,14 @@ def test_training_smoke_sac_dict_observations(tmp_path):
                                   out=tmp_path / "eval")  # fmt: skip
     (label,) = summaries
     assert label == f"{run_dir.name}/final_model"
+    # Outside its run folder (no config.yml), the model still loads as SAC: the algorithm
+    # comes from its zip, not from a default.
+    lone = tmp_path / "elsewhere" / "model.zip"
+    lone.parent.mkdir()
+    shutil.copy(run_dir / "final_model.zip", lone)
+    env = gym.make(train.DEFAULT_ENV_ID, max_steps=5)
+    assert type(evaluate.make_policy(str(lone), env).model).__name__ == "SAC"
+    env.close()
 
 
 def test_training_records_resolved_run(flat_ppo_run):
@@ -366,3 +374,39 @@ def test_a_primitive_policy_drives_the_6d_id(tmp_path):
     record = evaluate.run_episode(env, policy, seed=1000)
     assert len(record.position_error) == 61  # a 6-D action every control step
     env.close()
+
+
+def test_an_interrupted_run_resumes_from_its_latest_checkpoint(tmp_path, capsys):
+    """What a sweep does with a job whose attempt was cut off: the run continues from its
+    checkpoint with its normalisation statistics and its evaluation log, to the full budget."""
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+
+    run_dir = tmp_path / "run"
+    common = dict(
+        algo="ppo", env_id=train.DEFAULT_ENV_ID, n_envs=1, eval_episodes=1,
+        config_path=_tiny_config(tmp_path, "ppo"), env_kwargs={"max_steps": 40},
+        run_dir=run_dir, checkpoint_freq=32, eval_freq=32,
+    )  # fmt: skip
+    train.train(n_timesteps=64, **common)
+    (run_dir / "final_model.zip").unlink()  # as if stopped after the second checkpoint
+    assert train.latest_checkpoint(run_dir).name == "rl_model_64_steps.zip"
+    with pytest.raises(ValueError, match="already holds a run"):
+        train.train(n_timesteps=96, **common)
+    train.train(n_timesteps=96, resume=True, **common)
+    assert "resuming from" in capsys.readouterr().out
+    record = yaml.safe_load((run_dir / "config.yml").read_text())
+    assert record["resumed_from"] == "checkpoints/rl_model_64_steps.zip"
+    assert PPO.load(run_dir / "final_model.zip").num_timesteps == 96
+    with np.load(run_dir / "eval" / "evaluations.npz") as log:
+        assert log["timesteps"].tolist() == [32, 64, 96]  # the first two kept
+
+
+def test_a_failed_run_leaves_no_empty_folder(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    with pytest.raises(ValueError, match="batch_size"):
+        train.train(
+            n_timesteps=16, n_envs=1, log_folder=tmp_path, hyperparams={"batch_size": "x"},
+            config_path=_tiny_config(tmp_path, "ppo"),
+        )  # fmt: skip
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ppo.yml"]  # the config alone

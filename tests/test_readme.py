@@ -4,8 +4,9 @@ Each ```python block of README.md runs on its own, in a fresh interpreter starte
 repository root, as a reader would paste it after the README's set-up: a block must be
 self-contained. A block that is not meant to run starts with a ``# not run: <why>`` line,
 and only a few may. Files or folders a block creates in the root (a figure, say) are removed
-afterwards. Every command of the README's Set-up section (set-up, main command, tests) is a
-line of ``.ci/run``.
+afterwards. The README's two commands (the first shell block of its Set-up section: ``make
+run`` and ``make test``) are lines of ``.ci/run``, and the steps it gives by hand install the
+torch that the Makefile installs.
 """
 
 from __future__ import annotations
@@ -38,18 +39,16 @@ def python_blocks(text: str) -> list[tuple[int, str]]:
     ]
 
 
-def setup_commands(text: str) -> list[str]:
-    """The command lines of the shell blocks in the README's "## Set-up" section, without
+def setup_blocks(text: str) -> list[list[str]]:
+    """The command lines of each shell block in the README's "## Set-up" section, without
     their comments."""
     start = re.search(r"^## Set-up", text, re.MULTILINE)
     assert start, "README.md has no '## Set-up' section"
     end = re.compile(r"^## ", re.MULTILINE).search(text, start.end())
     section = text[start.end() : end.start() if end else len(text)]
     return [
-        command
+        [command for command in map(_without_comment, block.splitlines()) if command]
         for block in SHELL.findall(section)
-        for command in map(_without_comment, block.splitlines())
-        if command
     ]
 
 
@@ -105,11 +104,25 @@ def test_readme_block_runs(line, code):
     )
 
 
-def test_ci_runs_the_readmes_setup_commands():
-    commands = setup_commands(README.read_text())
-    assert any("pytest" in c for c in commands), commands
+def test_ci_runs_the_readmes_two_commands():
+    commands, *_ = setup_blocks(README.read_text())
+    assert commands == ["make run", "make test"], commands
     ci = {_without_comment(line) for line in CI.read_text().splitlines()}
     assert [c for c in commands if c not in ci] == [], ".ci/run differs from the README"
+
+
+def test_the_manual_steps_do_what_the_makefile_does():
+    """The steps by hand install the torch the Makefile does and run what its targets run."""
+    _, manual, *_ = setup_blocks(README.read_text())
+    makefile = (ROOT / "Makefile").read_text()
+    torch = re.search(r"^TORCH := (\S+)", makefile, re.MULTILINE).group(1)
+    index = re.search(r"^TORCH_CPU_INDEX := (\S+)", makefile, re.MULTILINE).group(1)
+    assert f"pip install {torch} --index-url {index}" in manual
+    assert re.search(r"^EXTRAS \?= (\S+)", makefile, re.MULTILINE).group(1) == "train,test"
+    assert 'pip install -e ".[train,test]"' in manual
+    for command in ("python -m agents.reproduce_paper", "ruff check . && ruff format --check ."):
+        assert any(command in line for line in manual), command
+        assert command in makefile, command
 
 
 def test_blocks_are_found_and_failures_seen(tmp_path):
@@ -125,6 +138,6 @@ def test_blocks_are_found_and_failures_seen(tmp_path):
     assert run_block(blocks[1][1], tmp_path).returncode == 3
     written = run_block("open('figure.png', 'w').write('x')", tmp_path)
     assert written.returncode == 0 and list(tmp_path.iterdir()) == []
-    setup = "## Set-up\n\n```bash\npip install x   # why\n# a comment\n```\n\n## Usage\n"
-    setup += "```bash\nls\n```\n"
-    assert setup_commands(setup) == ["pip install x"]
+    setup = "## Set-up\n\n```bash\npip install x   # why\n# a comment\n```\n\n"
+    setup += "```bash\nmake\n```\n\n## Usage\n```bash\nls\n```\n"
+    assert setup_blocks(setup) == [["pip install x"], ["make"]]

@@ -135,6 +135,13 @@ def test_ppo_trains_a_few_steps(installed):
     _run(command, outside)
     (model,) = (outside / "runs").rglob("final_model.zip")
     assert (model.parent / "config.yml").exists()
+    # The usage names the module as a wheel's user runs it; a mistake is one line, status 2.
+    usage = _run([python, "-m", "tactile_gym.agents.train", "--help"], outside).stdout
+    assert usage.startswith("usage: python -m tactile_gym.agents.train")
+    typo = [python, "-m", "tactile_gym.agents.train", "--hyperparams", "n_step:64"]
+    result = subprocess.run(typo, cwd=outside, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 2 and "'n_step'" in result.stderr
+    assert "Traceback" not in result.stderr
 
 
 def test_main_command_on_one_trial(installed):

@@ -1,0 +1,43 @@
+# The README's two commands, on a fresh machine:
+#
+#   make run    # the main command: python -m agents.reproduce_paper (the paper's Table I)
+#   make test   # ruff check . && ruff format --check . && python -m pytest
+#
+# Both set up what they need first, once: a virtualenv in .venv, the CPU build of torch (else
+# pip fetches a multi-GB CUDA build), and the package, editable, with its [train,test] extras.
+# The set-up is redone only when pyproject.toml changes (a stamp file in .venv), so a second
+# run starts at once. `make setup` does the set-up alone; `make run ARGS="--trials 30"` passes
+# arguments to the main command; `make clean` removes .venv.
+
+PYTHON ?= python3
+VENV ?= .venv
+EXTRAS ?= train,test
+ARGS ?=
+comma := ,
+TORCH := torch==2.13.0
+TORCH_CPU_INDEX := https://download.pytorch.org/whl/cpu
+STAMP := $(VENV)/.installed-$(subst $(comma),-,$(EXTRAS))
+BIN := $(VENV)/bin
+
+.PHONY: run test setup clean
+
+run: $(STAMP)
+	$(BIN)/python -m agents.reproduce_paper $(ARGS)
+
+test: $(STAMP)
+	. $(BIN)/activate && ruff check . && ruff format --check . && python -m pytest $(ARGS)
+
+setup: $(STAMP)
+
+# The CPU index first, without retries (where it cannot be reached, as behind a proxy or
+# with a local index only, pip fails in seconds), then whatever index pip is configured with.
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --retries 0 --timeout 15 $(TORCH) \
+		--index-url $(TORCH_CPU_INDEX) \
+		|| $(BIN)/python -m pip install --quiet $(TORCH)
+	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS)]"
+	touch $@
+
+clean:
+	rm -rf $(VENV)

@@ -1,0 +1,227 @@
+"""What every ``python -m agents.<name>`` command shares: its parser, its errors, its quiet.
+
+* :func:`make_parser`: the usage names the module as the README runs it
+  (``python -m agents.train``, or ``python -m tactile_gym.agents.train`` from a wheel), every
+  option's help shows its default, and ``--debug`` is added.
+* :func:`run_main`: runs a command's ``main(argv)``. An expected error (a bad id, value,
+  config file or key, a missing model or extra: :data:`EXPECTED_ERRORS`) becomes one line on
+  stderr and exit status 2, like pip, ruff and argparse; ``--debug`` shows the traceback
+  instead. A closed pipe (``--dry-run | head``) ends quietly, Ctrl-C with status 130.
+* :class:`KeyValue`: the ``key:value`` arguments of ``--hyperparams`` and ``--env-kwargs``.
+* :func:`quiet_c_output`: PyBullet prints "pybullet build time" (stderr) when imported and
+  "argv[0]=" (stdout) on every connection, from C, past ``sys.stdout``. Importing this module
+  imports pybullet inside that block (every command imports this module before anything that
+  imports pybullet), and ``agents.train.make_env`` makes its envs inside it, so the commands'
+  output holds only what they mean to say.
+
+A command adopts all of it in a few lines::
+
+    from .cli import make_parser, run_main
+
+    def main(argv=None):
+        parser = make_parser(__spec__.name, __doc__)
+        ...
+
+    if __name__ == "__main__":
+        sys.exit(run_main(main))
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import ctypes
+import os
+import sys
+import textwrap
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import yaml
+
+#: Errors that mean "the input was wrong", not "the code is wrong": reported in one line.
+#: ``ImportError`` is a missing extra (its message names the install command).
+EXPECTED_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, ImportError, yaml.YAMLError)
+#: Exit status of a command given bad input (argparse's, pip's and ruff's).
+USAGE_ERROR = 2
+KEY_VALUE_HELP = (
+    "space-separated key:value pairs; each value is read as YAML, so 3e-4, true, flat, "
+    "[64, 64] and {a: 1} are a float, a bool, a string, a list and a mapping"
+)
+
+
+def install_hint(extra: str) -> str:
+    """How to install an extra, for a checkout and for the wheel."""
+    return (
+        f'pip install -e ".[{extra}]" in a checkout, or pip install "tactile-gym[{extra}]" '
+        "with the wheel"
+    )
+
+
+def require(module: str, extra: str):
+    """Import ``module``, or raise an ImportError that names the extra to install."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as error:
+        if error.name != module.split(".")[0]:
+            raise
+        raise ImportError(f"{module} is not installed; {install_hint(extra)}") from error
+
+
+def progress_bar(total: int, desc: str, unit: str):
+    """A tqdm progress bar on stderr, with rate and ETA, shown where stderr is a terminal
+    (tqdm comes with ``[train]``; without it, or off a terminal, a bar that shows nothing).
+    """
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        from types import SimpleNamespace
+
+        return SimpleNamespace(update=lambda n=1: None, close=lambda: None)
+    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, disable=None, leave=False)
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Defaults shown after each option's help (where there is one to show: not for flags,
+    nor where the help says what happens without the option); the description's examples
+    kept as written."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.default in (None, False) or action.default == {} or "default:" in action.help:
+            return action.help
+        return super()._get_help_string(action)
+
+
+def make_parser(module: str | None, doc: str | None, **kwargs: Any) -> argparse.ArgumentParser:
+    """A parser whose usage reads ``python -m <module>`` and whose help shows defaults.
+
+    Args:
+        module: the command's module (``__spec__.name``): ``agents.train`` in a checkout,
+            ``tactile_gym.agents.train`` in a wheel.
+        doc: the module docstring; its first line is the description, its first indented
+            block (the example commands) the epilog.
+        **kwargs: further ``argparse.ArgumentParser`` arguments.
+    """
+    first, _, rest = (doc or "").strip().partition("\n")
+    examples = textwrap.dedent(rest.lstrip("\n").split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        prog=f"python -m {module}" if module else None,
+        description=first,
+        epilog=f"examples:\n{textwrap.indent(examples, '  ')}" if examples.strip() else None,
+        formatter_class=HelpFormatter,
+        **kwargs,
+    )
+    parser.add_argument("--debug", action="store_true", help="show the full traceback of an error")
+    return parser
+
+
+class KeyValue(argparse.Action):
+    """``key:value`` pairs into a dict; each value is read as YAML (``3e-4``, ``[64, 64]``,
+    ``flat``, ``{a: 1}``), like rl_zoo3's ``--env-kwargs``/``--hyperparams`` without eval."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        pairs = {}
+        for item in values:
+            key, sep, value = item.partition(":")
+            if not sep or not key:
+                raise argparse.ArgumentError(self, f"expected key:value, got {item!r}")
+            try:
+                pairs[key] = yaml.safe_load(value)
+            except yaml.YAMLError as error:
+                raise argparse.ArgumentError(
+                    self, f"the value of {key!r} is not valid YAML: {value!r}"
+                ) from error
+        setattr(namespace, self.dest, pairs)
+
+
+@contextlib.contextmanager
+def quiet_c_output(fds: tuple[int, ...] = (1,)) -> Iterator[None]:
+    """File descriptors (stdout by default) sent to /dev/null for the block: silences what C
+    code prints there.
+
+    Python's own output to those streams inside the block is lost too; keep the block to
+    the C calls.
+    """
+    sys.stdout.flush()
+    sys.stderr.flush()
+    try:
+        libc = ctypes.CDLL(None)  # this process's C library (Linux, macOS)
+    except (OSError, TypeError):  # Windows has no such handle: C output is not buffered away
+        libc = None
+    saved = {}
+    try:
+        for fd in fds:
+            with contextlib.suppress(OSError):  # no such stream (a daemon): nothing to hide
+                saved[fd] = os.dup(fd)
+        with open(os.devnull, "w") as devnull:
+            for fd in saved:
+                os.dup2(devnull.fileno(), fd)
+            try:
+                yield
+            finally:
+                if libc is not None:  # C's buffered lines go to /dev/null, not the restored fd
+                    libc.fflush(None)
+                for fd, copy in saved.items():
+                    os.dup2(copy, fd)
+    finally:
+        for copy in saved.values():
+            os.close(copy)
+
+
+def import_pybullet_quietly() -> None:
+    """Import pybullet without its "pybullet build time" line on stderr (once a process)."""
+    if "pybullet" not in sys.modules:
+        with quiet_c_output((1, 2)):
+            import pybullet  # noqa: F401
+
+
+def _message(error: BaseException) -> str:
+    """The error's text; a YAML syntax error's in one line with its file and line."""
+    mark = getattr(error, "problem_mark", None)
+    if isinstance(error, yaml.YAMLError) and mark is not None:
+        return f"{mark.name}, line {mark.line + 1}: invalid YAML: {error.problem}"
+    return str(error).strip() or type(error).__name__
+
+
+def command_name(main: Callable) -> str:
+    """``python -m <module>`` of the command whose ``main`` this is."""
+    module = main.__module__
+    if module == "__main__":
+        spec = getattr(sys.modules["__main__"], "__spec__", None)
+        module = spec.name if spec else os.path.basename(sys.argv[0])
+    return f"python -m {module}"
+
+
+def run_main(main: Callable[[list[str] | None], Any], argv: list[str] | None = None) -> int:
+    """Run a command's ``main(argv)`` and return its exit status.
+
+    Expected errors (:data:`EXPECTED_ERRORS`) print ``<command>: error: <message>`` on stderr
+    and give :data:`USAGE_ERROR`; with ``--debug`` in ``argv`` they raise, traceback and all.
+    ``main`` returning an int is the status; anything else is success.
+    """
+    argv = sys.argv[1:] if argv is None else list(argv)
+    name = command_name(main)
+    try:
+        result = main(argv)
+        sys.stdout.flush()  # a closed pipe shows here, not as a complaint at exit
+    except EXPECTED_ERRORS as error:
+        if "--debug" in argv:
+            raise
+        message = _message(error)
+        print(f"{name}: error: {message}", file=sys.stderr)
+        return USAGE_ERROR
+    except BrokenPipeError:
+        # The reader went away (`| head`): stop writing, and keep Python from complaining
+        # again when it flushes stdout at exit.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    return result if isinstance(result, int) and not isinstance(result, bool) else 0
+
+
+import_pybullet_quietly()
