@@ -163,8 +163,10 @@ def test_kernels_compile_once_and_work_in_spawned_workers(scene):
     """Stable argument types: one compiled signature per kernel; a spawned process (as in an
     async vector env) gets the same wrench."""
     _press_table(scene, 0.001, steps=4)
-    for kernel in (_kernels.select, _kernels.evaluate, _kernels.commit):
+    for kernel in (_kernels.select, _kernels.evaluate, _kernels.commit, _kernels.substep):
         assert len(kernel.signatures) == 1, kernel
+    for kernel in (_kernels.advance, _kernels.link_pose):  # compiled when first needed
+        assert len(kernel.signatures) <= 1, kernel
     ctx = multiprocessing.get_context("spawn")
     with ctx.Pool(1) as pool:
         remote = pool.apply(_press_in_worker, (0.001,))

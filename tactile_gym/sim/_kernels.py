@@ -456,3 +456,173 @@ def commit(
         for r in range(4):
             for c in range(3):
                 prev_frames[prim_rows[k], r, c] = prim_data[k, FRAME + 3 * r + c]
+
+
+@njit(cache=True, inline="always")
+def _turned_frame(link, angle, out):
+    """Pose of a primitive on a revolute link into ``out`` (4, 3): rotation H Rz(angle), then
+    centre pin + R c. ``link`` (5, 3): H (the hinge frame's axes as columns, world frame),
+    the pin, c (the primitive's centre in the link frame)."""
+    c, s = math.cos(angle), math.sin(angle)
+    for r in range(3):
+        # H @ Rz(angle), summed in full as a matrix product would.
+        out[r, 0] = link[r, 0] * c + link[r, 1] * s + link[r, 2] * 0.0
+        out[r, 1] = link[r, 0] * -s + link[r, 1] * c + link[r, 2] * 0.0
+        out[r, 2] = link[r, 0] * 0.0 + link[r, 1] * 0.0 + link[r, 2] * 1.0
+    for r in range(3):
+        out[3, r] = link[3, r] + (
+            out[r, 0] * link[4, 0] + out[r, 1] * link[4, 1] + out[r, 2] * link[4, 2]
+        )
+
+
+@njit(cache=True)
+def link_pose(link, angle):
+    """(4, 3) pose of a primitive on a revolute link at ``angle`` (see ``_turned_frame``)."""
+    out = np.empty((4, 3))
+    _turned_frame(link, angle, out)
+    return out
+
+
+@njit(cache=True, inline="always")
+def _advance(pose, motion, turning, out):
+    """One substep of the fingertip's motion from ``pose`` into ``out`` (both (4, 3):
+    rotation, then position): position + step, and rotation step_R @ R when ``turning``."""
+    for r in range(3):
+        out[3, r] = pose[3, r] + motion[3, r]
+    for r in range(3):
+        for c in range(3):
+            if turning:
+                out[r, c] = motion[r, 0] * pose[0, c] + motion[r, 1] * pose[1, c]
+                out[r, c] += motion[r, 2] * pose[2, c]
+            else:
+                out[r, c] = pose[r, c]
+
+
+@njit(cache=True)
+def advance(pose, motion, turning, count):
+    """Apply ``count`` substeps of the fingertip's motion to ``pose`` in place (free air)."""
+    tmp = np.empty((4, 3))
+    for _ in range(count):
+        _advance(pose, motion, turning, tmp)
+        pose[:] = tmp
+
+
+@njit(cache=True)
+def substep(
+    points,
+    areas,
+    nodes,
+    distance,
+    moved,
+    poses,
+    prev_frames,
+    shapes,
+    prim_info,
+    prim_rows,
+    state_prim,
+    state_anchor,
+    state_delta,
+    old_ids,
+    old_count,
+    pose,
+    motion,
+    turning,
+    step_len,
+    link,
+    link_row,
+    angle,
+    f_prev,
+    limit,
+    k_n,
+    damping_rate,
+    k_t,
+    mu,
+    thickness,
+    reaction,
+):
+    """One physics substep of the skin: move, evaluate with the guarded move, commit.
+
+    The primitive on the revolute link (row ``link_row`` of the candidate primitives, -1 if
+    not among them) is posed at ``angle``; the fingertip advances from the committed ``pose``
+    by ``motion`` (rows 0-2 the per-substep rotation, applied when ``turning``; row 3 the
+    translation). If that raises |f| above ``limit`` (and above ``f_prev``), the guarded move
+    keeps the sideways part of the translation and the fraction of the advancing part that
+    linear interpolation puts at the limit, without rotation; if that is still above, the
+    fingertip stays. The result is committed (``commit``) and written to ``pose``.
+
+    Args:
+        points ... old_count: as in ``evaluate`` and ``commit`` (``old_ids``, ``old_count``:
+            the committed contact's node ids and count).
+        pose: (4, 3) committed fingertip pose, in/out.
+        motion: (4, 3) per-substep rotation and translation. turning: apply the rotation.
+        step_len: bound on any node's displacement by one substep of ``motion``, m.
+        link, link_row, angle: the revolute link (``_turned_frame``) and its angle, rad.
+        f_prev: |f| of the committed contact, N. limit: the guard's |f| limit, N.
+        k_n ... thickness: as in ``evaluate``.
+        reaction: (3, 3) out: force and torque (about its centre) on the link's primitive,
+            world frame, and that centre; valid when the returned ``pushed`` is True.
+
+    Returns:
+        (evaluate's tuple, limited, travelled, pushed): whether the guard held the fingertip
+        back, the bound on node displacement to add to the motion since ``select`` (m), and
+        whether the link's primitive is touched.
+    """
+    if link_row >= 0:
+        _turned_frame(link, angle, poses[link_row + 1])
+    cand = np.empty((4, 3))
+    _advance(pose, motion, turning, cand)
+    poses[0] = cand
+    out = evaluate(
+        points, areas, nodes, distance, moved, poses, prev_frames, shapes, prim_info,
+        state_prim, state_anchor, state_delta, k_n, damping_rate, k_t, mu, thickness,
+    )  # fmt: skip
+    f_new = out[3]
+    limited = False
+    held = not turning
+    if f_new > limit and f_new > f_prev:
+        limited = True
+        held = True
+        wrench = out[4]
+        f_dir = np.empty(3)
+        for r in range(3):
+            f_dir[r] = pose[r, 0] * wrench[0] + pose[r, 1] * wrench[1] + pose[r, 2] * wrench[2]
+            f_dir[r] /= f_new
+        push = min(motion[3, 0] * f_dir[0] + motion[3, 1] * f_dir[1] + motion[3, 2] * f_dir[2], 0.0)
+        frac = 0.9 * max(0.0, (limit - f_prev) / (f_new - f_prev))
+        scale = (1.0 - frac) * push
+        for r in range(3):
+            cand[3, r] = pose[3, r] + motion[3, r] - scale * f_dir[r]
+            for c in range(3):
+                cand[r, c] = pose[r, c]
+        poses[0] = cand
+        out = evaluate(
+            points, areas, nodes, distance, moved, poses, prev_frames, shapes, prim_info,
+            state_prim, state_anchor, state_delta, k_n, damping_rate, k_t, mu, thickness,
+        )  # fmt: skip
+        f_new = out[3]
+        if f_new > limit and f_new > f_prev:
+            for r in range(3):
+                cand[3, r] = pose[3, r]
+            poses[0] = cand
+            out = evaluate(
+                points, areas, nodes, distance, moved, poses, prev_frames, shapes, prim_info,
+                state_prim, state_anchor, state_delta, k_n, damping_rate, k_t, mu, thickness,
+            )  # fmt: skip
+    if held:
+        d0, d1, d2 = cand[3, 0] - pose[3, 0], cand[3, 1] - pose[3, 1], cand[3, 2] - pose[3, 2]
+        travelled = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    else:
+        travelled = step_len
+    pose[:] = cand
+    count, _, _, _, _, prim_data, node_data, node_ids = out
+    commit(
+        state_prim, state_anchor, state_delta, prev_frames, old_ids, old_count,
+        node_ids, node_data, count, prim_data, prim_rows,
+    )  # fmt: skip
+    pushed = link_row >= 0 and prim_data[link_row, COUNT] > 0.0
+    if pushed:
+        for r in range(3):
+            reaction[0, r] = prim_data[link_row, REACTION + r]
+            reaction[1, r] = prim_data[link_row, REACTION + 3 + r]
+            reaction[2, r] = poses[link_row + 1, 3, r]
+    return out, limited, travelled, pushed

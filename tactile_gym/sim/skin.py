@@ -58,8 +58,10 @@ whose starting distance is below the motion so far.
 
 The broad phase, the per-substep node loop (narrow phase, forces, stick-slip, wrench) and
 committing the state are compiled kernels (:mod:`tactile_gym.sim._kernels`): a few hundred
-nodes are too few to amortise NumPy's per-call cost. ``Contact`` keeps the kernel's output
-and builds its per-node views and dictionaries on demand.
+nodes are too few to amortise NumPy's per-call cost. ``substep`` runs a whole physics
+substep of the skin (the fingertip's motion, the guarded move, evaluation, commit) in one
+call (docs/design.md 3.5). ``Contact`` keeps the kernel's output and builds its per-node
+views and dictionaries on demand; the committed one is built only when asked for.
 """
 
 from __future__ import annotations
@@ -338,17 +340,41 @@ class SoftSkin:
         # Frames (x_primitive = A x_sensor + b) of every primitive at the last committed
         # pose (or ``select``): where a node came from, to find where it entered a box.
         self._prev_frames = np.zeros((0, 4, 3))
-        self.contact = _EMPTY
+        # The committed contact: a Contact, or the kernel's raw output (built on demand).
+        self._contact: Contact | None = _EMPTY
+        self._raw: tuple | None = None
+        self._raw_prims: tuple[list[int], np.ndarray] = ([], _EMPTY._prim_rows)
+        self._ids = _EMPTY._node_ids
+        #: Nodes in contact in the committed contact.
+        self.n_active = 0
+        #: |force| of the committed contact, N.
+        self.force_norm = 0.0
 
     @property
     def n_nodes(self) -> int:
         return len(self.points)
 
+    @property
+    def contact(self) -> Contact:
+        """The committed contact."""
+        if self._contact is None:
+            self._contact = Contact(*self._raw, *self._raw_prims)
+            self._raw = None
+        return self._contact
+
+    def _set(self, contact: Contact) -> None:
+        self._contact, self._raw = contact, None
+        self._ids, self.n_active, self.force_norm = (
+            contact._node_ids,
+            contact.n_active,
+            contact.force_norm,
+        )
+
     def reset(self) -> None:
         """Forget all contact state (anchors, previous penetration)."""
         self._prim.fill(-1)
         self._delta.fill(0.0)
-        self.contact = _EMPTY
+        self._set(_EMPTY)
 
     # --- broad phase ---------------------------------------------------------------------
 
@@ -395,6 +421,8 @@ class SoftSkin:
         # teleport, where every node then lacks a history).
         self._prev_frames = frames
         near = np.flatnonzero(hits)
+        near_poses = np.empty((len(near) + 1, 4, 3))
+        _fill_poses(near_poses, [primitives[j] for j in near], rotation, position)
         return Selection(
             nodes=nodes,
             points=points,
@@ -405,7 +433,7 @@ class SoftSkin:
             shapes=shapes[near],
             prim_info=prim_info[near],
             prim_rows=near.astype(np.int64),
-            poses=np.empty((len(near) + 1, 4, 3)),
+            poses=near_poses,
         )
 
     # --- narrow phase and forces ---------------------------------------------------------
@@ -457,18 +485,96 @@ class SoftSkin:
 
     def commit(self, contact: Contact) -> None:
         """Make ``contact`` the skin's state (anchors, penetration) for the next step."""
-        old = self.contact
         _kernels.commit(
             self._prim,
             self._anchor,
             self._delta,
             self._prev_frames,
-            old._node_ids,
-            old.n_active,
+            self._ids,
+            self.n_active,
             contact._node_ids,
             contact._node_data,
             contact.n_active,
             contact._prim_data,
             contact._prim_rows,
         )
-        self.contact = contact
+        self._set(contact)
+
+    def substep(
+        self,
+        selection: Selection,
+        pose: np.ndarray,
+        motion: np.ndarray,
+        turning: bool,
+        step_len: float,
+        moved: float,
+        link: np.ndarray,
+        link_row: int,
+        angle: float,
+        limit: float,
+        dt: float,
+        reaction: np.ndarray,
+    ) -> tuple[bool, float, bool, float, bool, float]:
+        """One physics substep in one compiled call (``_kernels.substep``): advance the
+        fingertip ``pose`` by ``motion`` under the guarded move, evaluate and commit.
+
+        Args:
+            selection: from ``select``; its ``poses`` hold the primitives' poses.
+            pose: (4, 3) fingertip rotation (sensor to world) and position, updated in place.
+            motion: (4, 3) per-substep rotation (applied when ``turning``) and translation.
+            step_len: bound on any node's displacement in one substep of ``motion``, m.
+            moved: bound on the relative motion of any node and primitive since ``select``
+                after this substep, m.
+            link, link_row, angle: the primitive on the revolute link (row of the selection,
+                -1 if not in it), posed at ``angle`` rad (``_kernels.link_pose``).
+            limit: guarded-move limit on |f|, N.
+            dt: time since the last committed evaluation, s.
+            reaction: (3, 3) out: force and torque on the link's primitive (world frame,
+                about its centre) and its centre, when it is touched.
+
+        Returns:
+            (limited, travelled, pushed, max_penetration, shell_contact, force_norm): the
+            guard held the fingertip back; the bound on node displacement this substep, m;
+            the link's primitive is touched (``reaction``); the committed contact's largest
+            penetration (m), shell contact and |f| (N).
+        """
+        out, limited, travelled, pushed = _kernels.substep(
+            selection.points,
+            selection.areas,
+            selection.nodes,
+            selection.distance,
+            moved,
+            selection.poses,
+            self._prev_frames,
+            selection.shapes,
+            selection.prim_info,
+            selection.prim_rows,
+            self._prim,
+            self._anchor,
+            self._delta,
+            self._ids,
+            self.n_active,
+            pose,
+            motion,
+            turning,
+            step_len,
+            link,
+            link_row,
+            angle,
+            self.force_norm,
+            limit,
+            self.k_n,
+            self.c_n / dt,
+            self.k_t,
+            self.mu,
+            self.thickness,
+            reaction,
+        )
+        self._contact, self._raw = None, out
+        self._raw_prims = (selection.prims, selection.prim_rows)
+        self.n_active, self.force_norm, self._ids = out[0], out[3], out[7]
+        return limited, travelled, pushed, out[1], out[2], out[3]
+
+    def release(self) -> None:
+        """Let go: commit the empty contact (nothing is within reach)."""
+        self.commit(_EMPTY)
