@@ -171,3 +171,21 @@ def test_kernels_compile_once_and_work_in_spawned_workers(scene):
     with ctx.Pool(1) as pool:
         remote = pool.apply(_press_in_worker, (0.001,))
     np.testing.assert_array_equal(remote, _press_in_worker(0.001))
+
+
+@pytest.mark.parametrize("keys", ["spread", "rounded", "equal", "empty"])
+def test_broad_phase_order_is_numpys_stable_argsort(keys):
+    """The broad phase's candidate order (which sets the order of the force sums) is the
+    stable sort's, ties in index order, also with many equal distances."""
+    rng = np.random.default_rng(5)
+    n = 0 if keys == "empty" else 1500
+    values = {
+        "spread": rng.normal(0.0, 1e-3, n),
+        "rounded": np.round(rng.normal(0.0, 1e-3, n), 4),
+        "equal": np.full(n, 2e-3),
+        "empty": np.zeros(0),
+    }[keys]
+    padded = np.concatenate([values, rng.normal(size=7)])  # only the first n count
+    np.testing.assert_array_equal(
+        _kernels.stable_order(padded, n), np.argsort(values, kind="stable")
+    )

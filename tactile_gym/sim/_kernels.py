@@ -161,6 +161,49 @@ def _entry(shapes, j, y0, y1, y2, x0, x1, x2):
 
 
 @njit(cache=True)
+def stable_order(keys, count):
+    """The permutation that sorts ``keys[:count]`` ascending, ties in index order: the one
+    ``np.argsort(kind="stable")`` gives (a stable sort's permutation is unique).
+
+    Linear time for spread keys, where a merge sort was a third of ``select``: a counting
+    sort into about count / 4 buckets of equal width (the bucket index is monotone in the
+    key), then an insertion sort within each bucket.
+    """
+    order = np.empty(count, dtype=np.int64)
+    if count == 0:
+        return order
+    lo = hi = keys[0]
+    for i in range(count):
+        lo = min(lo, keys[i])
+        hi = max(hi, keys[i])
+    n_buckets = count // 4 + 1
+    scale = (n_buckets - 1) / (hi - lo) if hi > lo else 0.0
+    bucket = np.empty(count, dtype=np.int64)
+    start = np.zeros(n_buckets + 1, dtype=np.int64)
+    for i in range(count):
+        b = min(int((keys[i] - lo) * scale), n_buckets - 1)
+        bucket[i] = b
+        start[b + 1] += 1
+    for b in range(n_buckets):
+        start[b + 1] += start[b]
+    fill = start[:-1].copy()
+    for i in range(count):
+        b = bucket[i]
+        order[fill[b]] = i
+        fill[b] += 1
+    for b in range(n_buckets):
+        for k in range(start[b] + 1, start[b + 1]):
+            item = order[k]
+            key = keys[item]
+            j = k - 1
+            while j >= start[b] and keys[order[j]] > key:
+                order[j + 1] = order[j]
+                j -= 1
+            order[j + 1] = item
+    return order
+
+
+@njit(cache=True)
 def select(
     points,
     areas,
@@ -227,7 +270,7 @@ def select(
                     dist[s] = d
     for i in range(count):
         slot[found[i]] = -1
-    order = np.argsort(dist[:count], kind="mergesort")
+    order = stable_order(dist, count)
     nodes = np.empty(count, dtype=np.int64)
     cand_points = np.empty((count, 3))
     cand_areas = np.empty(count)

@@ -25,6 +25,7 @@ into the object; retreating is always allowed.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,19 +75,28 @@ def _rotation(value, name: str) -> np.ndarray:
     """A (3, 3) rotation matrix, sensor to world, from a matrix or a quaternion (x, y, z, w)."""
     r = np.asarray(value, dtype=float)
     if r.shape == (3, 3):
-        if not (
-            np.all(np.isfinite(r))
-            and np.allclose(r.T @ r, np.eye(3), atol=1e-6)
-            and np.linalg.det(r) > 0.0
-        ):
+        # Scalar checks: this runs every control step, and NumPy's per-call cost would be
+        # most of it. NaN and inf fail the comparisons.
+        (a, b, c), (d, e, f), (g, h, i) = r.tolist()
+        gram = (
+            a * a + d * d + g * g - 1.0,
+            b * b + e * e + h * h - 1.0,
+            c * c + f * f + i * i - 1.0,
+            a * b + d * e + g * h,
+            a * c + d * f + g * i,
+            b * c + e * f + h * i,
+        )
+        det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+        if not (all(abs(x) <= 1e-6 for x in gram) and det > 0.0):
             raise ValueError(f"{name} must be a rotation matrix (orthonormal, det +1), got {r}")
         return r
-    if r.shape != (4,) or not np.all(np.isfinite(r)) or np.linalg.norm(r) < 1e-9:
+    norm = float(np.linalg.norm(r)) if r.shape == (4,) else 0.0
+    if not (math.isfinite(norm) and norm >= 1e-9):
         raise ValueError(
             f"{name} must be a (3, 3) rotation matrix or a finite non-zero quaternion "
             f"(x, y, z, w), got {r}"
         )
-    return quaternion_to_matrix(r / np.linalg.norm(r))
+    return quaternion_to_matrix(r / norm)
 
 
 def _point(v, name: str) -> np.ndarray:
@@ -300,7 +310,7 @@ class ProbeScene:
                 angle = p.getJointState(body, 0, physicsClientId=cid)[0]
             moved = self._tip_moved + step_len + abs(angle - self._q_sel) * reach_obj
             if not len(sel.nodes) and moved < sel.reach:
-                # Nothing within reach: skip the skin until the motion could close the gap.
+                # Nothing within reach: the physics alone until the motion could close the gap.
                 if skin.n_active:
                     skin.release()
                 pending += 1
