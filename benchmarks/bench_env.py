@@ -1,6 +1,6 @@
 """Env throughput of the v1 ids, against bare physics on the same scene in the same run.
 
-    python benchmarks/bench_env.py [--steps 400] [--ids tactile_gym/HingeProbe-v1 ...]
+    python benchmarks/bench_env.py [--steps 400] [--ids tactile_gym/HingeProbe-v1 ...] [--profile]
 
 One markdown table per id. Rows: one process with random actions (mostly free motion), one
 process with the scripted baseline (``agents.scripted.scripted_policy``: presses, turns), and
@@ -10,6 +10,12 @@ used, times the substeps of one control step; the ratio says how many times dear
 step of the env (skin, sensing, gate, estimator, observation) is than the rigid-body physics.
 For the primitive ids a step is a primitive, which runs several control steps of the 6-D env
 underneath: the table gives both.
+
+``--profile`` adds, per id, where a control step of the scripted policy goes: the skin's
+compiled kernels, PyBullet's calls, the rest of ``ProbeScene.control_step`` (the simulator's
+Python) and the rest of the env step (controller, sensing, gate, estimator, task,
+observation). Each part is timed around its calls, which adds about a microsecond per call to
+the total; the bare-physics multiple of the plain rows is the figure to quote.
 """
 
 from __future__ import annotations
@@ -30,6 +36,17 @@ import pybullet as p  # noqa: E402
 
 import tactile_gym  # noqa: E402, F401 - registers the envs
 from agents.scripted import scripted_policy  # noqa: E402
+from tactile_gym.sim import _kernels  # noqa: E402
+from tactile_gym.sim.scene import ProbeScene  # noqa: E402
+
+#: The calls each part of ``--profile`` times: (owner, attribute names).
+PARTS = {
+    "skin kernels": (_kernels, ("select", "substep", "evaluate", "commit", "advance")),
+    "PyBullet": (
+        p,
+        ("stepSimulation", "getJointState", "applyExternalForce", "applyExternalTorque"),
+    ),
+}
 
 BARE_REPEATS = 2000
 
@@ -95,6 +112,63 @@ def time_vector(env_id: str, steps: int) -> dict[str, float]:
     }
 
 
+class _Timer:
+    """Accumulates the time spent in the wrapped calls."""
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+        self.depth = 0
+
+    def wrap(self, function):
+        def timed(*args, **kwargs):
+            if self.depth:  # a part called from within the same part counts once
+                return function(*args, **kwargs)
+            self.depth += 1
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                self.seconds += time.perf_counter() - start
+                self.depth -= 1
+
+        return timed
+
+
+def profile(env_id: str, steps: int) -> str:
+    """Where a control step of the scripted policy goes (see the module docstring)."""
+    timers = {name: _Timer() for name in (*PARTS, "control_step")}
+    originals = []
+    for name, (owner, attributes) in PARTS.items():
+        for attribute in attributes:
+            originals.append((owner, attribute, getattr(owner, attribute)))
+            setattr(owner, attribute, timers[name].wrap(getattr(owner, attribute)))
+    originals.append((ProbeScene, "control_step", ProbeScene.control_step))
+    ProbeScene.control_step = timers["control_step"].wrap(ProbeScene.control_step)
+    try:
+        result = time_single(env_id, "scripted", steps)
+    finally:
+        for owner, attribute, original in originals:
+            setattr(owner, attribute, original)
+    control_steps = steps * result["control steps/step"]
+    total = result["ms/control step"] * 1e3
+    parts = {name: 1e6 * t.seconds / control_steps for name, t in timers.items()}
+    sim = parts.pop("control_step")
+    parts["simulator Python"] = sim - sum(parts.values())
+    parts["env Python (sensing, gate, estimator, task, observation)"] = total - sim
+    parts["bare stepSimulation x substeps"] = result["bare ms/control step"] * 1e3
+    lines = [
+        f"`{env_id}`, scripted policy, {steps} steps: where one control step goes",
+        "",
+        "| part | us per control step | multiple of bare physics |",
+        "|---|---:|---:|",
+    ]
+    bare = parts["bare stepSimulation x substeps"]
+    for name, us in parts.items():
+        lines.append(f"| {name} | {us:.0f} | {us / bare:.1f}x |")
+    lines.append(f"| total (timed) | {total:.0f} | {total / bare:.1f}x |")
+    return "\n".join(lines)
+
+
 def table(env_id: str, steps: int) -> str:
     primitive = gym.make(env_id).action_space.shape == (3,)
     rows = {
@@ -132,11 +206,17 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=400, help="steps per row")
     parser.add_argument("--ids", nargs="+", default=list(tactile_gym.ENV_IDS))
+    parser.add_argument(
+        "--profile", action="store_true", help="also split a scripted control step into parts"
+    )
     args = parser.parse_args(argv)
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the start\n")
     for env_id in args.ids:
         print(table(env_id, args.steps))
         print()
+        if args.profile:
+            print(profile(env_id, args.steps))
+            print()
 
 
 if __name__ == "__main__":

@@ -556,7 +556,6 @@ def substep(
     areas,
     nodes,
     distance,
-    moved,
     poses,
     prev_frames,
     shapes,
@@ -565,8 +564,13 @@ def substep(
     state_prim,
     state_anchor,
     state_delta,
+    k_n,
+    k_t,
+    mu,
+    thickness,
     old_ids,
     old_count,
+    moved,
     pose,
     motion,
     turning,
@@ -576,11 +580,7 @@ def substep(
     angle,
     f_prev,
     limit,
-    k_n,
     damping_rate,
-    k_t,
-    mu,
-    thickness,
     reaction,
 ):
     """One physics substep of the skin: move, evaluate with the guarded move, commit.
@@ -594,14 +594,14 @@ def substep(
     fingertip stays. The result is committed (``commit``) and written to ``pose``.
 
     Args:
-        points ... old_count: as in ``evaluate`` and ``commit`` (``old_ids``, ``old_count``:
-            the committed contact's node ids and count).
+        points ... thickness, moved, damping_rate: as in ``evaluate`` and ``commit`` (the
+            first sixteen are fixed for a selection, so the caller keeps them as one tuple).
+        old_ids, old_count: the committed contact's node ids and count.
         pose: (4, 3) committed fingertip pose, in/out.
         motion: (4, 3) per-substep rotation and translation. turning: apply the rotation.
         step_len: bound on any node's displacement by one substep of ``motion``, m.
         link, link_row, angle: the revolute link (``_turned_frame``) and its angle, rad.
         f_prev: |f| of the committed contact, N. limit: the guard's |f| limit, N.
-        k_n ... thickness: as in ``evaluate``.
         reaction: (3, 3) out: force and torque (about its centre) on the link's primitive,
             world frame, and that centre; valid when the returned ``pushed`` is True.
 

@@ -99,6 +99,12 @@ def _rotation(value, name: str) -> np.ndarray:
     return quaternion_to_matrix(r / norm)
 
 
+def _norm(v: np.ndarray) -> float:
+    """``np.linalg.norm`` of a 1-D float vector, to the bit (it is sqrt(v.v)), without its
+    per-call overhead."""
+    return math.sqrt(v.dot(v))
+
+
 def _point(v, name: str) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     if v.shape != (3,) or not np.all(np.isfinite(v)):
@@ -262,12 +268,12 @@ class ProbeScene:
         pose = self._pose
 
         dp = target - pose[3]
-        dist = float(np.linalg.norm(dp))
+        dist = _norm(dp)
         if dist > self.max_speed * horizon:
             dp *= self.max_speed * horizon / dist
             dist = self.max_speed * horizon
         rv = matrix_to_rotvec(r_target @ pose[:3].T)
-        ang = float(np.linalg.norm(rv))
+        ang = _norm(rv)
         if ang > self.max_angular_speed * horizon:
             rv *= self.max_angular_speed * horizon / ang
             ang = self.max_angular_speed * horizon
@@ -282,7 +288,7 @@ class ProbeScene:
         obj.sync()
         angle = obj.joint_angle
         # Bound on any node's displacement per substep (translation + rotation x lever).
-        step_len = float(np.linalg.norm(motion[3])) + ang / n * skin.reach + 1e-9
+        step_len = _norm(motion[3]) + ang / n * skin.reach + 1e-9
         obj_budget = abs(obj.joint_velocity) * horizon * reach_obj + 1e-3
         # An empty broad phase of an earlier step still holds while it covers this step's
         # motion too (no node has a history to keep: the next selection records the frames).
@@ -345,17 +351,9 @@ class ProbeScene:
             self._tip_moved += travelled
             limited = limited or step_limited
             if pushed:
-                p.applyExternalForce(
-                    body,
-                    0,
-                    reaction[0].tolist(),
-                    reaction[2].tolist(),
-                    p.WORLD_FRAME,
-                    physicsClientId=cid,
-                )
-                p.applyExternalTorque(
-                    body, 0, reaction[1].tolist(), p.WORLD_FRAME, physicsClientId=cid
-                )
+                on_link, torque, centre = reaction.tolist()
+                p.applyExternalForce(body, 0, on_link, centre, p.WORLD_FRAME, physicsClientId=cid)
+                p.applyExternalTorque(body, 0, torque, p.WORLD_FRAME, physicsClientId=cid)
             p.stepSimulation(physicsClientId=cid)
             max_pen = max(max_pen, pen)
             shell = shell or step_shell

@@ -95,6 +95,8 @@ class Selection:
             them (:mod:`tactile_gym.sim._kernels`).
         prim_rows: (P,) int64, ``prims`` as an array.
         poses: (P + 1, 4, 3) buffer for the poses of each evaluation.
+        kernel_args: the arguments of ``_kernels.substep`` that are fixed while this
+            selection is in use (built once: a substep's call is then one tuple).
     """
 
     nodes: np.ndarray
@@ -107,6 +109,7 @@ class Selection:
     prim_info: np.ndarray
     prim_rows: np.ndarray
     poses: np.ndarray
+    kernel_args: tuple = ()
 
 
 class Contact:
@@ -423,7 +426,7 @@ class SoftSkin:
         near = np.flatnonzero(hits)
         near_poses = np.empty((len(near) + 1, 4, 3))
         _fill_poses(near_poses, [primitives[j] for j in near], rotation, position)
-        return Selection(
+        sel = Selection(
             nodes=nodes,
             points=points,
             areas=areas,
@@ -435,6 +438,25 @@ class SoftSkin:
             prim_rows=near.astype(np.int64),
             poses=near_poses,
         )
+        sel.kernel_args = (
+            points,
+            areas,
+            nodes,
+            dist,
+            near_poses,
+            frames,
+            sel.shapes,
+            sel.prim_info,
+            sel.prim_rows,
+            self._prim,
+            self._anchor,
+            self._delta,
+            self.k_n,
+            self.k_t,
+            self.mu,
+            self.thickness,
+        )
+        return sel
 
     # --- narrow phase and forces ---------------------------------------------------------
 
@@ -539,21 +561,10 @@ class SoftSkin:
             penetration (m), shell contact and |f| (N).
         """
         out, limited, travelled, pushed = _kernels.substep(
-            selection.points,
-            selection.areas,
-            selection.nodes,
-            selection.distance,
-            moved,
-            selection.poses,
-            self._prev_frames,
-            selection.shapes,
-            selection.prim_info,
-            selection.prim_rows,
-            self._prim,
-            self._anchor,
-            self._delta,
+            *selection.kernel_args,
             self._ids,
             self.n_active,
+            moved,
             pose,
             motion,
             turning,
@@ -563,11 +574,7 @@ class SoftSkin:
             angle,
             self.force_norm,
             limit,
-            self.k_n,
             self.c_n / dt,
-            self.k_t,
-            self.mu,
-            self.thickness,
             reaction,
         )
         self._contact, self._raw = None, out
