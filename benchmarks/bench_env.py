@@ -5,7 +5,9 @@
 One markdown table per id. Rows: one process with random actions (mostly free motion), one
 process with the scripted baseline (``agents.scripted.scripted_policy``: presses, turns), and
 a 2-process async vector env with random actions (its rate is the total of both envs).
-Resets are not timed. The baseline is ``stepSimulation`` alone on the scene the row's env
+Resets are not timed. Times are this thread's CPU time (``time.thread_time``), so other
+processes sharing the cores do not count; the vector env's row is wall time (its envs run in
+worker processes). The baseline is ``stepSimulation`` alone on the scene the row's env
 used, times the substeps of one control step; the ratio says how many times dearer a control
 step of the env (skin, sensing, gate, estimator, observation) is than the rigid-body physics.
 For the primitive ids a step is a primitive, which runs several control steps of the 6-D env
@@ -56,10 +58,10 @@ def bare_physics_per_control_step(env: gym.Env) -> float:
     scene, as the env left it."""
     scene = env.unwrapped.scene
     client_id = scene.world.client_id
-    start = time.perf_counter()
+    start = time.thread_time()
     for _ in range(BARE_REPEATS):
         p.stepSimulation(physicsClientId=client_id)
-    return (time.perf_counter() - start) / BARE_REPEATS * scene.substeps
+    return (time.thread_time() - start) / BARE_REPEATS * scene.substeps
 
 
 def time_single(env_id: str, policy: str, steps: int) -> dict[str, float]:
@@ -72,9 +74,9 @@ def time_single(env_id: str, policy: str, steps: int) -> dict[str, float]:
     elapsed, control_steps, forces = 0.0, 0, []
     for _ in range(steps):
         action = scripted.get_action(obs) if policy == "scripted" else env.action_space.sample()
-        start = time.perf_counter()
+        start = time.thread_time()
         obs, _, terminated, truncated, info = env.step(action)
-        elapsed += time.perf_counter() - start
+        elapsed += time.thread_time() - start
         control_steps += info.get("steps", 1)
         forces.append(float(np.linalg.norm(obs["wrench"][:3])))
         if terminated or truncated:
@@ -124,11 +126,11 @@ class _Timer:
             if self.depth:  # a part called from within the same part counts once
                 return function(*args, **kwargs)
             self.depth += 1
-            start = time.perf_counter()
+            start = time.thread_time()
             try:
                 return function(*args, **kwargs)
             finally:
-                self.seconds += time.perf_counter() - start
+                self.seconds += time.thread_time() - start
                 self.depth -= 1
 
         return timed

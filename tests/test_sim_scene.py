@@ -273,9 +273,9 @@ def test_free_air_steps_are_physics_only(monkeypatch):
     calls.update(select=0, substep=0)
     for k in range(10):
         s.control_step(high + [0.0005 * k, 0.0, 0.0], DOWN)
-    # The 2 mm margin (SkinConfig.margin) covers 4 steps of 0.5 mm after the 1 mm allowed for
-    # the object: one selection in 4 steps, none of the skin's substeps.
-    assert calls == {"select": 3, "substep": 0}
+    # 3 cm above the table: one selection (empty, valid until the fingertip has moved its
+    # clearance) and none of the skin's substeps.
+    assert calls == {"select": 1, "substep": 0}
     assert s.skin.n_active == 0 and not np.any(s.true_wrench)
     np.testing.assert_allclose(s.fingertip_position, high + [0.0045, 0.0, 0.0], atol=1e-15)
     # Down onto the table, 2 mm per step: the skin wakes up in time and the table pushes back.

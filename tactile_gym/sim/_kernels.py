@@ -236,7 +236,8 @@ def select(
     Returns:
         (nodes (M,), their points (M, 3), areas (M,) and distances (M,), ascending, the
         smallest over the primitives; hits (P,): how many nodes are within reach of each
-        primitive; frames (P, 4, 3) of all primitives at this pose).
+        primitive; frames (P, 4, 3) of all primitives at this pose; clearance: a lower bound
+        on every node's distance to every primitive, m, from the bounds the pruning computed).
     """
     frames = _frames(poses)
     n_prim = prim_info.shape[0]
@@ -244,19 +245,25 @@ def select(
     dist = np.empty(points.shape[0])
     hits = np.zeros(n_prim, dtype=np.int64)
     count = 0
+    clearance = np.inf
     for j in range(n_prim):
         kind = prim_info[j, 1]
         x0, x1, x2 = _to_local(frames, j, bound_center[0], bound_center[1], bound_center[2])
-        if not _distance(shapes, kind, j, x0, x1, x2) < bound_radius + reach:
+        d = _distance(shapes, kind, j, x0, x1, x2)
+        if not d < bound_radius + reach:
+            clearance = min(clearance, d - bound_radius)
             continue
         for k in range(cluster_radius.shape[0]):
             c = cluster_center[k]
             x0, x1, x2 = _to_local(frames, j, c[0], c[1], c[2])
-            if not _distance(shapes, kind, j, x0, x1, x2) < cluster_radius[k] + reach:
+            d = _distance(shapes, kind, j, x0, x1, x2)
+            if not d < cluster_radius[k] + reach:
+                clearance = min(clearance, d - cluster_radius[k])
                 continue
             for i in range(cluster_start[k], cluster_start[k + 1]):
                 x0, x1, x2 = _to_local(frames, j, points[i, 0], points[i, 1], points[i, 2])
                 d = _distance(shapes, kind, j, x0, x1, x2)
+                clearance = min(clearance, d)
                 if not d < reach:
                     continue
                 hits[j] += 1
@@ -282,7 +289,7 @@ def select(
             cand_points[k, r] = points[i, r]
         cand_areas[k] = areas[i]
         cand_dist[k] = dist[order[k]]
-    return nodes, cand_points, cand_areas, cand_dist, hits, frames
+    return nodes, cand_points, cand_areas, cand_dist, hits, frames, clearance
 
 
 @njit(cache=True)

@@ -90,7 +90,8 @@ class Selection:
         areas: (M,) their areas, m^2.
         distance: (M,) ascending signed distance to the nearest primitive at selection, m.
         prims: indices (into the primitive list) of primitives near the fingertip.
-        reach: motion bound (plus margin) the selection covers, m.
+        reach: motion bound (plus margin) the selection covers, m; without candidates, the
+            clearance of every node from every primitive if that is larger.
         shapes, prim_info: those primitives' shapes and (index, kind), as the kernels take
             them (:mod:`tactile_gym.sim._kernels`).
         prim_rows: (P,) int64, ``prims`` as an array.
@@ -406,7 +407,7 @@ class SoftSkin:
         prim_info = np.array([range(len(primitives)), kinds], dtype=np.int64).T.copy()
         poses = np.empty((len(primitives) + 1, 4, 3))
         _fill_poses(poses, primitives, rotation, position)
-        nodes, points, areas, dist, hits, frames = _kernels.select(
+        nodes, points, areas, dist, hits, frames, clearance = _kernels.select(
             self.points,
             self.areas,
             self._cl_center,
@@ -432,7 +433,8 @@ class SoftSkin:
             areas=areas,
             distance=dist,
             prims=near.tolist(),
-            reach=reach,
+            # Without candidates, no node can touch before the motion reaches the clearance.
+            reach=reach if len(nodes) else max(reach, clearance),
             shapes=shapes[near],
             prim_info=prim_info[near],
             prim_rows=near.astype(np.int64),
