@@ -126,8 +126,8 @@ class HingedObject:
             body_id=self.body_id,
             link=-1,
         )
-        #: (5, 3) the free link for the compiled kernels: hinge axes (rows 0-2, the columns
-        #: of ``hinge_rotation``), pin, the free box's centre in the link frame.
+        #: (5, 3) the free link for the compiled kernels: ``hinge_rotation`` (rows 0-2), the
+        #: pin, the free box's centre in the link frame (``_kernels.link_pose``).
         self.link = np.concatenate([self.hinge_rotation, [self.pin, self.free_center_local]])
         self._angle = 0.0
         self._velocity = 0.0
