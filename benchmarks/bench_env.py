@@ -11,7 +11,8 @@ worker processes). The baseline is ``stepSimulation`` alone on the scene the row
 used, times the substeps of one control step; the ratio says how many times dearer a control
 step of the env (skin, sensing, gate, estimator, observation) is than the rigid-body physics.
 For the primitive ids a step is a primitive, which runs several control steps of the 6-D env
-underneath: the table gives both.
+underneath: the table gives both, and a primitive's cost as a multiple of one control step's
+bare physics (issue 16's yardstick).
 
 ``--profile`` adds, per id, where a control step of the scripted policy goes: the skin's
 compiled kernels, PyBullet's calls, the rest of ``ProbeScene.control_step`` (the simulator's
@@ -195,18 +196,25 @@ def table(env_id: str, steps: int) -> str:
         "",
         f"| case | {step}s/s | ms per {step} |"
         + (" control steps per primitive | ms per control step |" if primitive else "")
-        + " bare physics ms per control step | control step / bare physics | mean |f| (N) |",
-        "|---|---:|---:|" + ("---:|---:|" if primitive else "") + "---:|---:|---:|",
+        + " bare physics ms per control step | control step / bare physics |"
+        + (" primitive / bare physics per control step |" if primitive else "")
+        + " mean |f| (N) |",
+        "|---|---:|---:|"
+        + ("---:|---:|" if primitive else "")
+        + "---:|---:|"
+        + ("---:|" if primitive else "")
+        + "---:|",
     ]
     for name, r in rows.items():
         extra = (
             f" {r['control steps/step']:.1f} | {r['ms/control step']:.2f} |" if primitive else ""
         )
         ratio = r["ms/control step"] / r["bare ms/control step"]
+        per_primitive = f" {r['ms/step'] / r['bare ms/control step']:.0f}x |" if primitive else ""
         force = f"{r['mean |f|']:.1f}" if "mean |f|" in r else "-"
         lines.append(
             f"| {name} | {r['steps/s']:,.0f} | {r['ms/step']:.2f} |{extra}"
-            f" {r['bare ms/control step']:.3f} | {ratio:.0f}x | {force} |"
+            f" {r['bare ms/control step']:.3f} | {ratio:.0f}x |{per_primitive} {force} |"
         )
     return "\n".join(lines)
 

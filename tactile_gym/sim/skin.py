@@ -54,7 +54,9 @@ of the node set) and then nodes are kept if their signed distance is below the m
 plus ``margin``, sorted by that distance. Signed distances are 1-Lipschitz, so a node
 that started at distance d cannot touch before the fingertip and object have moved d
 relative to each other: each substep (``evaluate``) evaluates only the prefix of candidates
-whose starting distance is below the motion so far.
+whose starting distance is below the motion so far. The same bounds give a selection without
+candidates its clearance: no node can touch anything before that much relative motion, so
+the scene keeps it over several control steps (docs/design.md 3.5).
 
 The broad phase, the per-substep node loop (narrow phase, forces, stick-slip, wrench) and
 committing the state are compiled kernels (:mod:`tactile_gym.sim._kernels`): a few hundred
