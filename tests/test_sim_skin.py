@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig, _kernels
+from tactile_gym.spatial import rotation_z, rotvec_to_matrix
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])  # sensor z along world -z
 FAR = np.array([0.25, -0.15])  # table spot far from the object, m
@@ -189,3 +190,25 @@ def test_broad_phase_order_is_numpys_stable_argsort(keys):
     np.testing.assert_array_equal(
         _kernels.stable_order(padded, n), np.argsort(values, kind="stable")
     )
+
+
+def test_substep_pose_arithmetic_is_numpys_to_the_bit():
+    """The compiled substep poses the free link (H @ Rz(q), pin + R c) and turns the fingertip
+    (step_R @ R) with the very bits of the NumPy products it replaced: a last-bit difference
+    grows through the joint's stick-slip friction into a different trajectory
+    (docs/design.md 3.5)."""
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        hinge = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        pin, centre = rng.normal(size=3), rng.normal(size=3)
+        angle = rng.uniform(-3.0, 3.0)
+        pose = _kernels.link_pose(np.concatenate([hinge, [pin, centre]]), angle)
+        rotation = hinge @ rotation_z(angle)
+        np.testing.assert_array_equal(pose[:3], rotation)
+        np.testing.assert_array_equal(pose[3], pin + rotation @ centre)
+        tip = np.concatenate([np.linalg.qr(rng.normal(size=(3, 3)))[0], [rng.normal(size=3)]])
+        step = np.concatenate([rotvec_to_matrix(rng.normal(0.0, 0.01, 3)), [rng.normal(size=3)]])
+        moved = tip.copy()
+        _kernels.advance(moved, step, True, 1)
+        np.testing.assert_array_equal(moved[:3], step[:3] @ tip[:3])
+        np.testing.assert_array_equal(moved[3], tip[3] + step[3])

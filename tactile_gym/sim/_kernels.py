@@ -39,7 +39,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 
 BOX = 0
 PLANE = 1
@@ -508,6 +509,35 @@ def commit(
                 prev_frames[prim_rows[k], r, c] = prim_data[k, FRAME + 3 * r + c]
 
 
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """a * b + c rounded once (LLVM's ``llvm.fma``)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        return builder.fma(*args)
+
+    return sig, codegen
+
+
+# The pose arithmetic of a substep replaced NumPy products; these give their results to the
+# bit, as NumPy's OpenBLAS computes them on x86-64 with FMA (docs/design.md 3.5): a 3x3
+# matrix product and a dot product sum the terms in order with fused multiply-adds, a
+# matrix-vector product starts from the middle term.
+
+
+@njit(cache=True, inline="always")
+def _sum_fma(a0, b0, a1, b1, a2, b2):
+    """An entry of a 3x3 @ 3x3 product, or a 3-vector dot product, as NumPy computes it."""
+    return _fma(a2, b2, _fma(a1, b1, a0 * b0))
+
+
+@njit(cache=True, inline="always")
+def _matvec_entry(a0, b0, a1, b1, a2, b2):
+    """An entry of a 3x3 @ 3-vector product, as NumPy computes it."""
+    return _fma(a2, b2, _fma(a0, b0, a1 * b1))
+
+
 @njit(cache=True, inline="always")
 def _turned_frame(link, angle, out):
     """Pose of a primitive on a revolute link into ``out`` (4, 3): rotation H Rz(angle), then
@@ -515,13 +545,13 @@ def _turned_frame(link, angle, out):
     the pin, c (the primitive's centre in the link frame)."""
     c, s = math.cos(angle), math.sin(angle)
     for r in range(3):
-        # H @ Rz(angle), summed in full as a matrix product would.
-        out[r, 0] = link[r, 0] * c + link[r, 1] * s + link[r, 2] * 0.0
-        out[r, 1] = link[r, 0] * -s + link[r, 1] * c + link[r, 2] * 0.0
-        out[r, 2] = link[r, 0] * 0.0 + link[r, 1] * 0.0 + link[r, 2] * 1.0
+        h0, h1, h2 = link[r, 0], link[r, 1], link[r, 2]
+        out[r, 0] = _sum_fma(h0, c, h1, s, h2, 0.0)
+        out[r, 1] = _sum_fma(h0, -s, h1, c, h2, 0.0)
+        out[r, 2] = _sum_fma(h0, 0.0, h1, 0.0, h2, 1.0)
     for r in range(3):
-        out[3, r] = link[3, r] + (
-            out[r, 0] * link[4, 0] + out[r, 1] * link[4, 1] + out[r, 2] * link[4, 2]
+        out[3, r] = link[3, r] + _matvec_entry(
+            out[r, 0], link[4, 0], out[r, 1], link[4, 1], out[r, 2], link[4, 2]
         )
 
 
@@ -542,8 +572,9 @@ def _advance(pose, motion, turning, out):
     for r in range(3):
         for c in range(3):
             if turning:
-                out[r, c] = motion[r, 0] * pose[0, c] + motion[r, 1] * pose[1, c]
-                out[r, c] += motion[r, 2] * pose[2, c]
+                out[r, c] = _sum_fma(
+                    motion[r, 0], pose[0, c], motion[r, 1], pose[1, c], motion[r, 2], pose[2, c]
+                )
             else:
                 out[r, c] = pose[r, c]
 
@@ -635,9 +666,14 @@ def substep(
         wrench = out[4]
         f_dir = np.empty(3)
         for r in range(3):
-            f_dir[r] = pose[r, 0] * wrench[0] + pose[r, 1] * wrench[1] + pose[r, 2] * wrench[2]
+            f_dir[r] = _matvec_entry(
+                pose[r, 0], wrench[0], pose[r, 1], wrench[1], pose[r, 2], wrench[2]
+            )
             f_dir[r] /= f_new
-        push = min(motion[3, 0] * f_dir[0] + motion[3, 1] * f_dir[1] + motion[3, 2] * f_dir[2], 0.0)
+        push = min(
+            _sum_fma(motion[3, 0], f_dir[0], motion[3, 1], f_dir[1], motion[3, 2], f_dir[2]),
+            0.0,
+        )
         frac = 0.9 * max(0.0, (limit - f_prev) / (f_new - f_prev))
         scale = (1.0 - frac) * push
         for r in range(3):
