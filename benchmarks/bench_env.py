@@ -1,15 +1,26 @@
 """Env throughput of the v1 ids, against bare physics on the same scene in the same run.
 
-    python benchmarks/bench_env.py [--steps 400] [--ids tactile_gym/HingeProbe-v1 ...]
+    python benchmarks/bench_env.py [--steps 400] [--ids tactile_gym/HingeProbe-v1 ...] [--profile]
 
 One markdown table per id. Rows: one process with random actions (mostly free motion), one
 process with the scripted baseline (``agents.scripted.scripted_policy``: presses, turns), and
 a 2-process async vector env with random actions (its rate is the total of both envs).
-Resets are not timed. The baseline is ``stepSimulation`` alone on the scene the row's env
+Resets are not timed. Times are this thread's CPU time (``time.thread_time``), so other
+processes sharing the cores do not count; the vector env's row is wall time (its envs run in
+worker processes). The baseline is ``stepSimulation`` alone on the scene the row's env
 used, times the substeps of one control step; the ratio says how many times dearer a control
 step of the env (skin, sensing, gate, estimator, observation) is than the rigid-body physics.
 For the primitive ids a step is a primitive, which runs several control steps of the 6-D env
-underneath: the table gives both.
+underneath: the table gives both, and a primitive's cost as a multiple of one control step's
+bare physics (issue 16's yardstick).
+
+``--profile`` adds, per id, where a control step of the scripted policy goes: the skin's
+compiled kernels, PyBullet's calls, the rest of ``ProbeScene.control_step`` (the simulator's
+Python) and the rest of the env step (controller, sensing, gate, estimator, task,
+observation). Each part is timed around its calls with the wall clock (``thread_time`` costs
+about 5 us a call here, more than some of the calls it would time), which adds under a
+microsecond per call; the bare-physics multiple of the plain rows is the figure to quote, the
+split says what bounds it.
 """
 
 from __future__ import annotations
@@ -30,23 +41,39 @@ import pybullet as p  # noqa: E402
 
 import tactile_gym  # noqa: E402, F401 - registers the envs
 from agents.scripted import scripted_policy  # noqa: E402
+from tactile_gym.sim import _kernels  # noqa: E402
+from tactile_gym.sim.scene import ProbeScene  # noqa: E402
 
-BARE_REPEATS = 2000
+#: The calls each part of ``--profile`` times: (owner, attribute names).
+PARTS = {
+    "skin kernels": (_kernels, ("select", "substep", "evaluate", "commit", "advance")),
+    "PyBullet": (
+        p,
+        ("stepSimulation", "getJointState", "applyExternalForce", "applyExternalTorque"),
+    ),
+}
+
+#: Blocks of bare ``stepSimulation`` calls; the fastest block is the baseline, because on
+#: shared cores a block that another process slowed down says nothing about the physics.
+BARE_BLOCKS, BARE_REPEATS = 5, 400
 
 
 def bare_physics_per_control_step(env: gym.Env) -> float:
     """Seconds of bare ``stepSimulation`` per control step (all its substeps) on the env's
-    scene, as the env left it."""
+    scene, as the env left it: the fastest of ``BARE_BLOCKS`` blocks."""
     scene = env.unwrapped.scene
     client_id = scene.world.client_id
-    start = time.perf_counter()
-    for _ in range(BARE_REPEATS):
-        p.stepSimulation(physicsClientId=client_id)
-    return (time.perf_counter() - start) / BARE_REPEATS * scene.substeps
+    best = np.inf
+    for _ in range(BARE_BLOCKS):
+        start = time.thread_time()
+        for _ in range(BARE_REPEATS):
+            p.stepSimulation(physicsClientId=client_id)
+        best = min(best, (time.thread_time() - start) / BARE_REPEATS)
+    return best * scene.substeps
 
 
-def time_single(env_id: str, policy: str, steps: int) -> dict[str, float]:
-    """Time ``steps`` env steps in this process (resets excluded)."""
+def time_single(env_id: str, policy: str, steps: int, clock=time.thread_time) -> dict[str, float]:
+    """Time ``steps`` env steps in this process (resets excluded) with ``clock``."""
     env = gym.make(env_id)
     obs, _ = env.reset(seed=0)
     env.action_space.seed(0)
@@ -55,9 +82,9 @@ def time_single(env_id: str, policy: str, steps: int) -> dict[str, float]:
     elapsed, control_steps, forces = 0.0, 0, []
     for _ in range(steps):
         action = scripted.get_action(obs) if policy == "scripted" else env.action_space.sample()
-        start = time.perf_counter()
+        start = clock()
         obs, _, terminated, truncated, info = env.step(action)
-        elapsed += time.perf_counter() - start
+        elapsed += clock() - start
         control_steps += info.get("steps", 1)
         forces.append(float(np.linalg.norm(obs["wrench"][:3])))
         if terminated or truncated:
@@ -95,6 +122,63 @@ def time_vector(env_id: str, steps: int) -> dict[str, float]:
     }
 
 
+class _Timer:
+    """Accumulates the time spent in the wrapped calls."""
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+        self.depth = 0
+
+    def wrap(self, function):
+        def timed(*args, **kwargs):
+            if self.depth:  # a part called from within the same part counts once
+                return function(*args, **kwargs)
+            self.depth += 1
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                self.seconds += time.perf_counter() - start
+                self.depth -= 1
+
+        return timed
+
+
+def profile(env_id: str, steps: int) -> str:
+    """Where a control step of the scripted policy goes (see the module docstring)."""
+    timers = {name: _Timer() for name in (*PARTS, "control_step")}
+    originals = []
+    for name, (owner, attributes) in PARTS.items():
+        for attribute in attributes:
+            originals.append((owner, attribute, getattr(owner, attribute)))
+            setattr(owner, attribute, timers[name].wrap(getattr(owner, attribute)))
+    originals.append((ProbeScene, "control_step", ProbeScene.control_step))
+    ProbeScene.control_step = timers["control_step"].wrap(ProbeScene.control_step)
+    try:
+        result = time_single(env_id, "scripted", steps, clock=time.perf_counter)
+    finally:
+        for owner, attribute, original in originals:
+            setattr(owner, attribute, original)
+    control_steps = steps * result["control steps/step"]
+    total = result["ms/control step"] * 1e3
+    parts = {name: 1e6 * t.seconds / control_steps for name, t in timers.items()}
+    sim = parts.pop("control_step")
+    parts["simulator Python"] = sim - sum(parts.values())
+    parts["env Python (sensing, gate, estimator, task, observation)"] = total - sim
+    parts["bare stepSimulation x substeps"] = result["bare ms/control step"] * 1e3
+    lines = [
+        f"`{env_id}`, scripted policy, {steps} steps: where one control step goes",
+        "",
+        "| part | us per control step | multiple of bare physics |",
+        "|---|---:|---:|",
+    ]
+    bare = parts["bare stepSimulation x substeps"]
+    for name, us in parts.items():
+        lines.append(f"| {name} | {us:.0f} | {us / bare:.1f}x |")
+    lines.append(f"| total (timed) | {total:.0f} | {total / bare:.1f}x |")
+    return "\n".join(lines)
+
+
 def table(env_id: str, steps: int) -> str:
     primitive = gym.make(env_id).action_space.shape == (3,)
     rows = {
@@ -112,18 +196,25 @@ def table(env_id: str, steps: int) -> str:
         "",
         f"| case | {step}s/s | ms per {step} |"
         + (" control steps per primitive | ms per control step |" if primitive else "")
-        + " bare physics ms per control step | control step / bare physics | mean |f| (N) |",
-        "|---|---:|---:|" + ("---:|---:|" if primitive else "") + "---:|---:|---:|",
+        + " bare physics ms per control step | control step / bare physics |"
+        + (" primitive / bare physics per control step |" if primitive else "")
+        + " mean |f| (N) |",
+        "|---|---:|---:|"
+        + ("---:|---:|" if primitive else "")
+        + "---:|---:|"
+        + ("---:|" if primitive else "")
+        + "---:|",
     ]
     for name, r in rows.items():
         extra = (
             f" {r['control steps/step']:.1f} | {r['ms/control step']:.2f} |" if primitive else ""
         )
         ratio = r["ms/control step"] / r["bare ms/control step"]
+        per_primitive = f" {r['ms/step'] / r['bare ms/control step']:.0f}x |" if primitive else ""
         force = f"{r['mean |f|']:.1f}" if "mean |f|" in r else "-"
         lines.append(
             f"| {name} | {r['steps/s']:,.0f} | {r['ms/step']:.2f} |{extra}"
-            f" {r['bare ms/control step']:.3f} | {ratio:.0f}x | {force} |"
+            f" {r['bare ms/control step']:.3f} | {ratio:.0f}x |{per_primitive} {force} |"
         )
     return "\n".join(lines)
 
@@ -132,11 +223,17 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=400, help="steps per row")
     parser.add_argument("--ids", nargs="+", default=list(tactile_gym.ENV_IDS))
+    parser.add_argument(
+        "--profile", action="store_true", help="also split a scripted control step into parts"
+    )
     args = parser.parse_args(argv)
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the start\n")
     for env_id in args.ids:
         print(table(env_id, args.steps))
         print()
+        if args.profile:
+            print(profile(env_id, args.steps))
+            print()
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ import pytest
 
 from tactile_gym.sensing import estimate_contact
 from tactile_gym.sim import ObjectConfig, ProbeScene
-from tactile_gym.spatial import matrix_to_quaternion
+from tactile_gym.spatial import matrix_to_quaternion, quaternion_to_matrix
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])
 
@@ -200,3 +200,89 @@ def test_close_is_idempotent():
     s.close()
     with pytest.raises(RuntimeError):
         s.control_step([0, 0, 0.2], DOWN)
+
+
+def test_orientation_as_matrix_or_quaternion_gives_the_same_steps():
+    """control_step and reset take a (3, 3) rotation or a quaternion (x, y, z, w): the same
+    pose gives the same motion and wrench, to the last bit."""
+    runs = []
+    for as_matrix in (False, True):
+        s = ProbeScene(ObjectConfig.scissors())
+        ep, ed = s.edge_line
+        g = s.geometry
+        home = ep + 0.05 * ed + [0.0, -0.003, g.outer_radius + g.cylinder_length + 0.001]
+        q = finger_quaternion([0.0, 0.2, -1.0])
+        orient = quaternion_to_matrix(q) if as_matrix else q
+        s.reset(0.0, home, orient)
+        for k in range(12):
+            s.control_step(home - [0.0, 0.0, 0.0004 * k], orient)
+        runs.append((s.true_wrench, s.fingertip_position, s.fingertip_rotation))
+        s.close()
+    assert np.linalg.norm(runs[0][0][:3]) > 0.5  # it pressed
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize(
+    "orientation, match",
+    [
+        (np.diag([1.0, 1.0, 2.0]), "rotation matrix"),
+        (np.diag([1.0, 1.0, -1.0]), "rotation matrix"),
+        (np.zeros(4), "quaternion"),
+        (np.ones(3), "quaternion"),
+    ],
+)
+def test_bad_orientation_names_the_field(scene, orientation, match):
+    scene.reset(0.0, [0.05, 0.05, 0.2], DOWN)
+    with pytest.raises(ValueError, match=f"target_orientation.*{match}"):
+        scene.control_step([0.05, 0.05, 0.2], orientation)
+    with pytest.raises(ValueError, match="fingertip_orientation"):
+        scene.reset(0.0, [0.05, 0.05, 0.2], orientation)
+
+
+def test_primitives_carry_their_pybullet_ids(scene):
+    obj = scene.object
+    assert (obj.free_box.body_id, obj.free_box.link) == (obj.body_id, 0)
+    assert (obj.fixed_box.body_id, obj.fixed_box.link) == (obj.body_id, -1)
+    # The free box is posed as PyBullet poses the free link's collision box.
+    scene.reset(0.4, [0.05, 0.05, 0.2], DOWN)
+    cid = scene.world.client_id
+    lo, hi = p.getAABB(obj.body_id, 0, physicsClientId=cid)
+    ext = np.abs(obj.free_box.rotation) @ obj.free_box.half_extents
+    np.testing.assert_allclose(lo, obj.free_box.center - ext, atol=1e-6)
+    np.testing.assert_allclose(hi, obj.free_box.center + ext, atol=1e-6)
+
+
+def test_free_air_steps_are_physics_only(monkeypatch):
+    """While no node can reach anything the skin is skipped and the empty broad phase is
+    reused; once the motion can close the gap, the skin runs and finds the contact."""
+    s = ProbeScene(ObjectConfig.scissors())
+    calls = {"select": 0, "substep": 0}
+    for name in calls:
+        method = getattr(s.skin, name)
+
+        def counted(*args, _method=method, _name=name, **kwargs):
+            calls[_name] += 1
+            return _method(*args, **kwargs)
+
+        monkeypatch.setattr(s.skin, name, counted)
+    g = s.geometry
+    top = g.cylinder_length + g.outer_radius
+    high = np.array([0.25, -0.15, top + 0.03])
+    s.reset(0.0, high, DOWN)
+    calls.update(select=0, substep=0)
+    for k in range(10):
+        s.control_step(high + [0.0005 * k, 0.0, 0.0], DOWN)
+    # 3 cm above the table: one selection (empty, valid until the fingertip has moved its
+    # clearance) and none of the skin's substeps.
+    assert calls == {"select": 1, "substep": 0}
+    assert s.skin.n_active == 0 and not np.any(s.true_wrench)
+    np.testing.assert_allclose(s.fingertip_position, high + [0.0045, 0.0, 0.0], atol=1e-15)
+    # Down onto the table, 2 mm per step: the skin wakes up in time and the table pushes back.
+    pos = s.fingertip_position
+    while pos[2] > top - 0.001:
+        pos = pos - [0.0, 0.0, 0.002]
+        s.control_step(pos, DOWN)
+    assert calls["substep"] > 0
+    assert s.true_wrench[2] < -1.0  # the table pushes the fingertip up: sensor z is down
+    s.close()

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig, _kernels
+from tactile_gym.spatial import rotation_z, rotvec_to_matrix
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])  # sensor z along world -z
 FAR = np.array([0.25, -0.15])  # table spot far from the object, m
@@ -163,9 +164,51 @@ def test_kernels_compile_once_and_work_in_spawned_workers(scene):
     """Stable argument types: one compiled signature per kernel; a spawned process (as in an
     async vector env) gets the same wrench."""
     _press_table(scene, 0.001, steps=4)
-    for kernel in (_kernels.select, _kernels.evaluate, _kernels.commit):
+    for kernel in (_kernels.select, _kernels.evaluate, _kernels.commit, _kernels.substep):
         assert len(kernel.signatures) == 1, kernel
+    for kernel in (_kernels.advance, _kernels.link_pose):  # compiled when first needed
+        assert len(kernel.signatures) <= 1, kernel
     ctx = multiprocessing.get_context("spawn")
     with ctx.Pool(1) as pool:
         remote = pool.apply(_press_in_worker, (0.001,))
     np.testing.assert_array_equal(remote, _press_in_worker(0.001))
+
+
+@pytest.mark.parametrize("keys", ["spread", "rounded", "equal", "empty"])
+def test_broad_phase_order_is_numpys_stable_argsort(keys):
+    """The broad phase's candidate order (which sets the order of the force sums) is the
+    stable sort's, ties in index order, also with many equal distances."""
+    rng = np.random.default_rng(5)
+    n = 0 if keys == "empty" else 1500
+    values = {
+        "spread": rng.normal(0.0, 1e-3, n),
+        "rounded": np.round(rng.normal(0.0, 1e-3, n), 4),
+        "equal": np.full(n, 2e-3),
+        "empty": np.zeros(0),
+    }[keys]
+    padded = np.concatenate([values, rng.normal(size=7)])  # only the first n count
+    np.testing.assert_array_equal(
+        _kernels.stable_order(padded, n), np.argsort(values, kind="stable")
+    )
+
+
+def test_substep_pose_arithmetic_is_numpys_to_the_bit():
+    """The compiled substep poses the free link (H @ Rz(q), pin + R c) and turns the fingertip
+    (step_R @ R) with the very bits of the NumPy products it replaced: a last-bit difference
+    grows through the joint's stick-slip friction into a different trajectory
+    (docs/design.md 3.5)."""
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        hinge = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        pin, centre = rng.normal(size=3), rng.normal(size=3)
+        angle = rng.uniform(-3.0, 3.0)
+        pose = _kernels.link_pose(np.concatenate([hinge, [pin, centre]]), angle)
+        rotation = hinge @ rotation_z(angle)
+        np.testing.assert_array_equal(pose[:3], rotation)
+        np.testing.assert_array_equal(pose[3], pin + rotation @ centre)
+        tip = np.concatenate([np.linalg.qr(rng.normal(size=(3, 3)))[0], [rng.normal(size=3)]])
+        step = np.concatenate([rotvec_to_matrix(rng.normal(0.0, 0.01, 3)), [rng.normal(size=3)]])
+        moved = tip.copy()
+        _kernels.advance(moved, step, True, 1)
+        np.testing.assert_array_equal(moved[:3], step[:3] @ tip[:3])
+        np.testing.assert_array_equal(moved[3], tip[3] + step[3])

@@ -39,7 +39,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 
 BOX = 0
 PLANE = 1
@@ -161,6 +162,49 @@ def _entry(shapes, j, y0, y1, y2, x0, x1, x2):
 
 
 @njit(cache=True)
+def stable_order(keys, count):
+    """The permutation that sorts ``keys[:count]`` ascending, ties in index order: the one
+    ``np.argsort(kind="stable")`` gives (a stable sort's permutation is unique).
+
+    Linear time for spread keys, where a merge sort was a third of ``select``: a counting
+    sort into about count / 4 buckets of equal width (the bucket index is monotone in the
+    key), then an insertion sort within each bucket.
+    """
+    order = np.empty(count, dtype=np.int64)
+    if count == 0:
+        return order
+    lo = hi = keys[0]
+    for i in range(count):
+        lo = min(lo, keys[i])
+        hi = max(hi, keys[i])
+    n_buckets = count // 4 + 1
+    scale = (n_buckets - 1) / (hi - lo) if hi > lo else 0.0
+    bucket = np.empty(count, dtype=np.int64)
+    start = np.zeros(n_buckets + 1, dtype=np.int64)
+    for i in range(count):
+        b = min(int((keys[i] - lo) * scale), n_buckets - 1)
+        bucket[i] = b
+        start[b + 1] += 1
+    for b in range(n_buckets):
+        start[b + 1] += start[b]
+    fill = start[:-1].copy()
+    for i in range(count):
+        b = bucket[i]
+        order[fill[b]] = i
+        fill[b] += 1
+    for b in range(n_buckets):
+        for k in range(start[b] + 1, start[b + 1]):
+            item = order[k]
+            key = keys[item]
+            j = k - 1
+            while j >= start[b] and keys[order[j]] > key:
+                order[j + 1] = order[j]
+                j -= 1
+            order[j + 1] = item
+    return order
+
+
+@njit(cache=True)
 def select(
     points,
     areas,
@@ -193,7 +237,8 @@ def select(
     Returns:
         (nodes (M,), their points (M, 3), areas (M,) and distances (M,), ascending, the
         smallest over the primitives; hits (P,): how many nodes are within reach of each
-        primitive; frames (P, 4, 3) of all primitives at this pose).
+        primitive; frames (P, 4, 3) of all primitives at this pose; clearance: a lower bound
+        on every node's distance to every primitive, m, from the bounds the pruning computed).
     """
     frames = _frames(poses)
     n_prim = prim_info.shape[0]
@@ -201,19 +246,25 @@ def select(
     dist = np.empty(points.shape[0])
     hits = np.zeros(n_prim, dtype=np.int64)
     count = 0
+    clearance = np.inf
     for j in range(n_prim):
         kind = prim_info[j, 1]
         x0, x1, x2 = _to_local(frames, j, bound_center[0], bound_center[1], bound_center[2])
-        if not _distance(shapes, kind, j, x0, x1, x2) < bound_radius + reach:
+        d = _distance(shapes, kind, j, x0, x1, x2)
+        if not d < bound_radius + reach:
+            clearance = min(clearance, d - bound_radius)
             continue
         for k in range(cluster_radius.shape[0]):
             c = cluster_center[k]
             x0, x1, x2 = _to_local(frames, j, c[0], c[1], c[2])
-            if not _distance(shapes, kind, j, x0, x1, x2) < cluster_radius[k] + reach:
+            d = _distance(shapes, kind, j, x0, x1, x2)
+            if not d < cluster_radius[k] + reach:
+                clearance = min(clearance, d - cluster_radius[k])
                 continue
             for i in range(cluster_start[k], cluster_start[k + 1]):
                 x0, x1, x2 = _to_local(frames, j, points[i, 0], points[i, 1], points[i, 2])
                 d = _distance(shapes, kind, j, x0, x1, x2)
+                clearance = min(clearance, d)
                 if not d < reach:
                     continue
                 hits[j] += 1
@@ -227,7 +278,7 @@ def select(
                     dist[s] = d
     for i in range(count):
         slot[found[i]] = -1
-    order = np.argsort(dist[:count], kind="mergesort")
+    order = stable_order(dist, count)
     nodes = np.empty(count, dtype=np.int64)
     cand_points = np.empty((count, 3))
     cand_areas = np.empty(count)
@@ -239,7 +290,7 @@ def select(
             cand_points[k, r] = points[i, r]
         cand_areas[k] = areas[i]
         cand_dist[k] = dist[order[k]]
-    return nodes, cand_points, cand_areas, cand_dist, hits, frames
+    return nodes, cand_points, cand_areas, cand_dist, hits, frames, clearance
 
 
 @njit(cache=True)
@@ -456,3 +507,208 @@ def commit(
         for r in range(4):
             for c in range(3):
                 prev_frames[prim_rows[k], r, c] = prim_data[k, FRAME + 3 * r + c]
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """a * b + c rounded once (LLVM's ``llvm.fma``)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        return builder.fma(*args)
+
+    return sig, codegen
+
+
+# The pose arithmetic of a substep replaced NumPy products; these give their results to the
+# bit, as NumPy's OpenBLAS computes them on x86-64 with FMA (docs/design.md 3.5): a 3x3
+# matrix product and a dot product sum the terms in order with fused multiply-adds, a
+# matrix-vector product starts from the middle term.
+
+
+@njit(cache=True, inline="always")
+def _sum_fma(a0, b0, a1, b1, a2, b2):
+    """An entry of a 3x3 @ 3x3 product, or a 3-vector dot product, as NumPy computes it."""
+    return _fma(a2, b2, _fma(a1, b1, a0 * b0))
+
+
+@njit(cache=True, inline="always")
+def _matvec_entry(a0, b0, a1, b1, a2, b2):
+    """An entry of a 3x3 @ 3-vector product, as NumPy computes it."""
+    return _fma(a2, b2, _fma(a0, b0, a1 * b1))
+
+
+@njit(cache=True, inline="always")
+def _turned_frame(link, angle, out):
+    """Pose of a primitive on a revolute link into ``out`` (4, 3): rotation H Rz(angle), then
+    centre pin + R c. ``link`` (5, 3): H (the hinge frame's axes as columns, world frame),
+    the pin, c (the primitive's centre in the link frame)."""
+    c, s = math.cos(angle), math.sin(angle)
+    for r in range(3):
+        h0, h1, h2 = link[r, 0], link[r, 1], link[r, 2]
+        out[r, 0] = _sum_fma(h0, c, h1, s, h2, 0.0)
+        out[r, 1] = _sum_fma(h0, -s, h1, c, h2, 0.0)
+        out[r, 2] = _sum_fma(h0, 0.0, h1, 0.0, h2, 1.0)
+    for r in range(3):
+        out[3, r] = link[3, r] + _matvec_entry(
+            out[r, 0], link[4, 0], out[r, 1], link[4, 1], out[r, 2], link[4, 2]
+        )
+
+
+@njit(cache=True)
+def link_pose(link, angle):
+    """(4, 3) pose of a primitive on a revolute link at ``angle`` (see ``_turned_frame``)."""
+    out = np.empty((4, 3))
+    _turned_frame(link, angle, out)
+    return out
+
+
+@njit(cache=True, inline="always")
+def _advance(pose, motion, turning, out):
+    """One substep of the fingertip's motion from ``pose`` into ``out`` (both (4, 3):
+    rotation, then position): position + step, and rotation step_R @ R when ``turning``."""
+    for r in range(3):
+        out[3, r] = pose[3, r] + motion[3, r]
+    for r in range(3):
+        for c in range(3):
+            if turning:
+                out[r, c] = _sum_fma(
+                    motion[r, 0], pose[0, c], motion[r, 1], pose[1, c], motion[r, 2], pose[2, c]
+                )
+            else:
+                out[r, c] = pose[r, c]
+
+
+@njit(cache=True)
+def advance(pose, motion, turning, count):
+    """Apply ``count`` substeps of the fingertip's motion to ``pose`` in place (free air)."""
+    tmp = np.empty((4, 3))
+    for _ in range(count):
+        _advance(pose, motion, turning, tmp)
+        pose[:] = tmp
+
+
+@njit(cache=True)
+def substep(
+    points,
+    areas,
+    nodes,
+    distance,
+    poses,
+    prev_frames,
+    shapes,
+    prim_info,
+    prim_rows,
+    state_prim,
+    state_anchor,
+    state_delta,
+    k_n,
+    k_t,
+    mu,
+    thickness,
+    old_ids,
+    old_count,
+    moved,
+    pose,
+    motion,
+    turning,
+    step_len,
+    link,
+    link_row,
+    angle,
+    f_prev,
+    limit,
+    damping_rate,
+    reaction,
+):
+    """One physics substep of the skin: move, evaluate with the guarded move, commit.
+
+    The primitive on the revolute link (row ``link_row`` of the candidate primitives, -1 if
+    not among them) is posed at ``angle``; the fingertip advances from the committed ``pose``
+    by ``motion`` (rows 0-2 the per-substep rotation, applied when ``turning``; row 3 the
+    translation). If that raises |f| above ``limit`` (and above ``f_prev``), the guarded move
+    keeps the sideways part of the translation and the fraction of the advancing part that
+    linear interpolation puts at the limit, without rotation; if that is still above, the
+    fingertip stays. The result is committed (``commit``) and written to ``pose``.
+
+    Args:
+        points ... thickness, moved, damping_rate: as in ``evaluate`` and ``commit`` (the
+            first sixteen are fixed for a selection, so the caller keeps them as one tuple).
+        old_ids, old_count: the committed contact's node ids and count.
+        pose: (4, 3) committed fingertip pose, in/out.
+        motion: (4, 3) per-substep rotation and translation. turning: apply the rotation.
+        step_len: bound on any node's displacement by one substep of ``motion``, m.
+        link, link_row, angle: the revolute link (``_turned_frame``) and its angle, rad.
+        f_prev: |f| of the committed contact, N. limit: the guard's |f| limit, N.
+        reaction: (3, 3) out: force and torque (about its centre) on the link's primitive,
+            world frame, and that centre; valid when the returned ``pushed`` is True.
+
+    Returns:
+        (evaluate's tuple, limited, travelled, pushed): whether the guard held the fingertip
+        back, the bound on node displacement to add to the motion since ``select`` (m), and
+        whether the link's primitive is touched.
+    """
+    if link_row >= 0:
+        _turned_frame(link, angle, poses[link_row + 1])
+    cand = np.empty((4, 3))
+    _advance(pose, motion, turning, cand)
+    poses[0] = cand
+    out = evaluate(
+        points, areas, nodes, distance, moved, poses, prev_frames, shapes, prim_info,
+        state_prim, state_anchor, state_delta, k_n, damping_rate, k_t, mu, thickness,
+    )  # fmt: skip
+    f_new = out[3]
+    limited = False
+    held = not turning
+    if f_new > limit and f_new > f_prev:
+        limited = True
+        held = True
+        wrench = out[4]
+        f_dir = np.empty(3)
+        for r in range(3):
+            f_dir[r] = _matvec_entry(
+                pose[r, 0], wrench[0], pose[r, 1], wrench[1], pose[r, 2], wrench[2]
+            )
+            f_dir[r] /= f_new
+        push = min(
+            _sum_fma(motion[3, 0], f_dir[0], motion[3, 1], f_dir[1], motion[3, 2], f_dir[2]),
+            0.0,
+        )
+        frac = 0.9 * max(0.0, (limit - f_prev) / (f_new - f_prev))
+        scale = (1.0 - frac) * push
+        for r in range(3):
+            cand[3, r] = pose[3, r] + motion[3, r] - scale * f_dir[r]
+            for c in range(3):
+                cand[r, c] = pose[r, c]
+        poses[0] = cand
+        out = evaluate(
+            points, areas, nodes, distance, moved, poses, prev_frames, shapes, prim_info,
+            state_prim, state_anchor, state_delta, k_n, damping_rate, k_t, mu, thickness,
+        )  # fmt: skip
+        f_new = out[3]
+        if f_new > limit and f_new > f_prev:
+            for r in range(3):
+                cand[3, r] = pose[3, r]
+            poses[0] = cand
+            out = evaluate(
+                points, areas, nodes, distance, moved, poses, prev_frames, shapes, prim_info,
+                state_prim, state_anchor, state_delta, k_n, damping_rate, k_t, mu, thickness,
+            )  # fmt: skip
+    if held:
+        d0, d1, d2 = cand[3, 0] - pose[3, 0], cand[3, 1] - pose[3, 1], cand[3, 2] - pose[3, 2]
+        travelled = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    else:
+        travelled = step_len
+    pose[:] = cand
+    count, _, _, _, _, prim_data, node_data, node_ids = out
+    commit(
+        state_prim, state_anchor, state_delta, prev_frames, old_ids, old_count,
+        node_ids, node_data, count, prim_data, prim_rows,
+    )  # fmt: skip
+    pushed = link_row >= 0 and prim_data[link_row, COUNT] > 0.0
+    if pushed:
+        for r in range(3):
+            reaction[0, r] = prim_data[link_row, REACTION + r]
+            reaction[1, r] = prim_data[link_row, REACTION + 3 + r]
+            reaction[2, r] = poses[link_row + 1, 3, r]
+    return out, limited, travelled, pushed

@@ -20,16 +20,13 @@ from __future__ import annotations
 import numpy as np
 import pybullet as p
 
+from tactile_gym.sim import _kernels
 from tactile_gym.sim.config import ObjectConfig
 from tactile_gym.sim.primitives import RoundedBox
 from tactile_gym.sim.world import World
 from tactile_gym.spatial import matrix_to_quaternion, rotation_z
 
 __all__ = ["HingedObject"]
-
-FREE_BODY = 0
-FIXED_BODY = 1
-TABLE_BODY = 2
 
 
 class HingedObject:
@@ -118,15 +115,20 @@ class HingedObject:
             config.edge_radius,
             self.pin.copy(),
             self.hinge_rotation.copy(),
-            body=FREE_BODY,
+            body_id=self.body_id,
+            link=0,
         )
         self.fixed_box = RoundedBox(
             self.fixed_half,
             config.edge_radius,
             self.pin + self.hinge_rotation @ self.fixed_center_local,
             self.hinge_rotation.copy(),
-            body=FIXED_BODY,
+            body_id=self.body_id,
+            link=-1,
         )
+        #: (5, 3) the free link for the compiled kernels: ``hinge_rotation`` (rows 0-2), the
+        #: pin, the free box's centre in the link frame (``_kernels.link_pose``).
+        self.link = np.concatenate([self.hinge_rotation, [self.pin, self.free_center_local]])
         self._angle = 0.0
         self._velocity = 0.0
         self.reset(joint_angle)
@@ -146,9 +148,10 @@ class HingedObject:
         self._angle, self._velocity = p.getJointState(self.body_id, 0, physicsClientId=self._cid)[
             :2
         ]
-        r = self.link_rotation
-        self.free_box.rotation = r
-        self.free_box.center = self.pin + r @ self.free_center_local
+        # The pose the kernels give the free box at this angle, to the last bit.
+        pose = _kernels.link_pose(self.link, self._angle)
+        self.free_box.rotation = pose[:3]
+        self.free_box.center = pose[3]
 
     @property
     def joint_angle(self) -> float:
@@ -164,11 +167,6 @@ class HingedObject:
     def link_rotation(self) -> np.ndarray:
         """Free-link frame axes as columns, world frame."""
         return self.hinge_rotation @ rotation_z(self._angle)
-
-    @property
-    def free_link_com(self) -> np.ndarray:
-        """Centre of mass of the free link, world frame, m."""
-        return self.free_box.center.copy()
 
     @property
     def true_axis(self) -> tuple[np.ndarray, np.ndarray]:

@@ -3,7 +3,7 @@
 Each primitive has a pose in the world frame (``center``, ``rotation`` whose columns are its
 local axes) and a signed distance in its *local* frame (negative inside). The skin's kernels
 (``tactile_gym/sim/_kernels.py``) evaluate nodes in the primitive's local frame; the functions
-here serve the broad phase's set-up and tests. The signed distance tells whether a node is
+here serve tests (the kernels restate them). The signed distance tells whether a node is
 inside; which surface presses it, and how deep, is the skin's business (near an edge it is
 the face the node came through, not the nearest one: ``tactile_gym/sim/skin.py``). Units:
 metres.
@@ -54,14 +54,16 @@ class RoundedBox:
         radius: edge rounding, m.
         center: (3,) box centre, world frame, m.
         rotation: (3, 3) box axes as columns, world frame.
-        body: index of the body this primitive belongs to (the scene's convention).
+        body_id: PyBullet id of the body it belongs to (-1: none, a shape on its own).
+        link: the body's link it belongs to (-1: the base).
     """
 
     half_extents: np.ndarray
     radius: float
     center: np.ndarray
     rotation: np.ndarray
-    body: int = 0
+    body_id: int = -1
+    link: int = -1
 
     def __post_init__(self) -> None:
         self.half_extents = np.asarray(self.half_extents, dtype=float)
@@ -71,23 +73,20 @@ class RoundedBox:
         """Signed distance and normal for (N, 3) points in the box frame."""
         return rounded_box_sdf(x, self.half_extents, self.radius)
 
-    def world_aabb(self) -> tuple[np.ndarray, np.ndarray]:
-        """Axis-aligned bounding box in the world frame: (lower, upper), m."""
-        ext = np.abs(self.rotation) @ self.half_extents
-        return self.center - ext, self.center + ext
-
-    def signed_distance_world(self, x: np.ndarray) -> np.ndarray:
-        """Signed distance of (N, 3) world points, m."""
-        d, _ = self.local_sdf((np.atleast_2d(x) - self.center) @ self.rotation)
-        return d
-
 
 @dataclass
 class Plane:
-    """The half-space z <= height of the world frame (the table)."""
+    """The half-space z <= height of the world frame (the table).
+
+    Attributes:
+        height: the table top's z, world frame, m.
+        body_id: PyBullet id of the table's body (-1: none).
+        link: -1, the table body's base.
+    """
 
     height: float = 0.0
-    body: int = 2
+    body_id: int = -1
+    link: int = -1
 
     # The local frame is the world frame (the height enters the distance), so the skin's
     # stick-slip anchors on the table are world points.
@@ -99,10 +98,3 @@ class Plane:
         n = np.zeros_like(x)
         n[:, 2] = 1.0
         return x[:, 2] - self.height, n
-
-    def world_aabb(self) -> tuple[np.ndarray, np.ndarray]:
-        big = 1e9
-        return np.array([-big, -big, -big]), np.array([big, big, self.height])
-
-    def signed_distance_world(self, x: np.ndarray) -> np.ndarray:
-        return np.atleast_2d(x)[:, 2] - self.height

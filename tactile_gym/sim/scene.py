@@ -7,13 +7,16 @@ Frames (docs/design.md 2):
 * sensor: origin at the F/T sensor, z along the finger axis, hemisphere centre at
   (0, 0, L); the wrench is in the sensor frame, moments about the sensor origin.
 
-The fingertip pose (position, quaternion x y z w) maps the sensor frame to the world frame:
-x_world = R(q) x_sensor + position.
+The fingertip pose is a rotation matrix R (sensor to world) and a position inside:
+x_world = R x_sensor + position. Targets may be given as a (3, 3) rotation or a quaternion
+(x, y, z, w); quaternions appear only at that boundary and in ``fingertip_orientation``.
 
 Each physics step: the skin forces are computed at the fingertip's new pose against
 the current object pose (:mod:`tactile_gym.sim.skin`), their reaction is applied to the free
 link with ``applyExternalForce``/``applyExternalTorque`` (world frame; PyBullet clears them
-after every ``stepSimulation``), then PyBullet steps the rigid bodies. The table and the fixed
+after every ``stepSimulation``), then PyBullet steps the rigid bodies. The skin's part of a
+substep is one compiled call; a substep in which the broad phase proves that no node can
+reach anything is the physics alone (docs/design.md 3.5). The table and the fixed
 link are static. The fingertip is kinematic, like the paper's coordinate-measuring machine:
 it moves at constant velocity toward the commanded pose over the substeps (speed-limited), and
 a guarded move refuses any substep that would raise |f| above ``force_limit`` by advancing
@@ -22,16 +25,18 @@ into the object; retreating is always allowed.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
 
 from tactile_gym.sensing import FingertipGeometry, SensorConfig
+from tactile_gym.sim import _kernels
 from tactile_gym.sim.config import ObjectConfig, SkinConfig
-from tactile_gym.sim.objects import FREE_BODY, HingedObject
+from tactile_gym.sim.objects import HingedObject
 from tactile_gym.sim.primitives import Plane
-from tactile_gym.sim.skin import Contact, SoftSkin
+from tactile_gym.sim.skin import Contact, Selection, SoftSkin
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP, World
 from tactile_gym.spatial import (
     matrix_to_quaternion,
@@ -66,11 +71,38 @@ class StepInfo:
     max_force: float
 
 
-def _unit_quaternion(q) -> np.ndarray:
-    q = np.asarray(q, dtype=float)
-    if q.shape != (4,) or not np.all(np.isfinite(q)) or np.linalg.norm(q) < 1e-9:
-        raise ValueError(f"orientation must be a finite non-zero quaternion (x, y, z, w), got {q}")
-    return q / np.linalg.norm(q)
+def _rotation(value, name: str) -> np.ndarray:
+    """A (3, 3) rotation matrix, sensor to world, from a matrix or a quaternion (x, y, z, w)."""
+    r = np.asarray(value, dtype=float)
+    if r.shape == (3, 3):
+        # Scalar checks: this runs every control step, and NumPy's per-call cost would be
+        # most of it. NaN and inf fail the comparisons.
+        (a, b, c), (d, e, f), (g, h, i) = r.tolist()
+        gram = (
+            a * a + d * d + g * g - 1.0,
+            b * b + e * e + h * h - 1.0,
+            c * c + f * f + i * i - 1.0,
+            a * b + d * e + g * h,
+            a * c + d * f + g * i,
+            b * c + e * f + h * i,
+        )
+        det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+        if not (all(abs(x) <= 1e-6 for x in gram) and det > 0.0):
+            raise ValueError(f"{name} must be a rotation matrix (orthonormal, det +1), got {r}")
+        return r
+    norm = float(np.linalg.norm(r)) if r.shape == (4,) else 0.0
+    if not (math.isfinite(norm) and norm >= 1e-9):
+        raise ValueError(
+            f"{name} must be a (3, 3) rotation matrix or a finite non-zero quaternion "
+            f"(x, y, z, w), got {r}"
+        )
+    return quaternion_to_matrix(r / norm)
+
+
+def _norm(v: np.ndarray) -> float:
+    """``np.linalg.norm`` of a 1-D float vector, to the bit (it is sqrt(v.v)), without its
+    per-call overhead."""
+    return math.sqrt(v.dot(v))
 
 
 def _point(v, name: str) -> np.ndarray:
@@ -125,18 +157,20 @@ class ProbeScene:
         # At rest at angle 0, or at the nearest limit for joints whose range excludes 0.
         rest = float(np.clip(0.0, object_config.lower_limit, object_config.upper_limit))
         self._object = HingedObject(self._world, object_config, rest)
-        self._table = Plane(0.0)
+        self._table = Plane(0.0, body_id=self._world.table_id)
         self._skin = SoftSkin(geometry, skin_config)
         self._force_bias = np.asarray(sensor_config.force_bias, dtype=float)
         self._moment_bias = np.asarray(sensor_config.moment_bias, dtype=float)
-        self._pos = np.array([0.0, 0.0, 0.2])
-        self._rot = np.eye(3)
+        # Fingertip pose, sensor to world: rotation (rows 0-2), then position (row 3).
+        self._pose = np.zeros((4, 3))
+        self._pose[:3] = np.eye(3)
+        self._pose[3] = [0.0, 0.0, 0.2]
+        self._motion = np.zeros((4, 3))  # per-substep rotation and translation
+        self._reaction = np.zeros((3, 3))  # on the free link: force, torque, centre
         self._fingertip_visual = self._make_fingertip_visual()
         self._closed = False
         self.last_reaction: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self._free_reach = float(
-            np.linalg.norm(np.abs(self._object.free_center_local) + self._object.free_half)
-        )
+        self._use_object()
 
     # --- construction ----------------------------------------------------------------------
 
@@ -157,12 +191,22 @@ class ProbeScene:
             baseMass=0.0,
             baseCollisionShapeIndex=-1,
             baseVisualShapeIndex=vis,
-            basePosition=self._pos.tolist(),
+            basePosition=self._pose[3].tolist(),
             physicsClientId=cid,
         )
 
-    def _primitives(self) -> list:
-        return [self._object.free_box, self._object.fixed_box, self._table]
+    def _use_object(self) -> None:
+        """Primitives, free link and broad-phase state for the current object."""
+        obj = self._object
+        self._prims = [*obj.primitives, self._table]
+        # The free link is the one primitive that moves, and takes the skin's reaction.
+        self._free = next(i for i, prim in enumerate(self._prims) if prim is obj.free_box)
+        self._link = obj.link
+        self._free_reach = float(np.linalg.norm(np.abs(obj.free_center_local) + obj.free_half))
+        self._selection: Selection | None = None
+        self._tip_moved = 0.0  # bound on node motion since the selection, m
+        self._q_sel = 0.0  # joint angle at the selection, rad
+        self._link_row = -1  # the free link's row in the selection
 
     # --- episode -------------------------------------------------------------------------
 
@@ -178,153 +222,166 @@ class ProbeScene:
         Args:
             joint_angle: rad.
             fingertip_position: (3,) sensor origin, world frame, m.
-            fingertip_orientation: (4,) quaternion x y z w, sensor to world.
+            fingertip_orientation: (3, 3) rotation or (4,) quaternion x y z w, sensor to
+                world.
             object_config: rebuild the object from this config if it differs.
         """
         self._check_open()
         pos = _point(fingertip_position, "fingertip_position")
-        quat = _unit_quaternion(fingertip_orientation)
+        rot = _rotation(fingertip_orientation, "fingertip_orientation")
         if object_config is not None and object_config != self._object_config:
             self._object.remove()
             self._object = HingedObject(self._world, object_config, float(joint_angle))
             self._object_config = object_config
-            self._free_reach = float(
-                np.linalg.norm(np.abs(self._object.free_center_local) + self._object.free_half)
-            )
+        self._use_object()
         self._object.reset(float(joint_angle))
-        self._pos = pos
-        self._rot = quaternion_to_matrix(quat)
+        self._pose[:3] = rot
+        self._pose[3] = pos
         self._skin.reset()
-        prims = self._primitives()
-        sel = self._skin.select(prims, self._rot, self._pos, 0.0)
-        contact = self._skin.evaluate(sel, prims, self._rot, self._pos, self.time_step)
+        prims = self._prims
+        sel = self._skin.select(prims, rot, pos, 0.0)
+        contact = self._skin.evaluate(sel, prims, rot, pos, self.time_step)
         self._skin.commit(contact)
 
     def control_step(self, target_position, target_orientation) -> StepInfo:
         """Move the fingertip toward a target pose over ``substeps`` physics steps.
 
+        Each substep is one compiled call (``SoftSkin.substep``: the fingertip's motion, the
+        guarded move, the skin and its commit), the reaction on the free link, and PyBullet's
+        ``stepSimulation``. While the broad phase proves that no node can reach any
+        primitive, a substep is the physics alone (docs/design.md 3.5).
+
         Args:
             target_position: (3,) sensor origin target, world frame, m.
-            target_orientation: (4,) quaternion x y z w target, sensor to world.
+            target_orientation: (3, 3) rotation or (4,) quaternion x y z w target, sensor
+                to world.
 
         Returns:
             StepInfo for the substeps.
         """
         self._check_open()
         target = _point(target_position, "target_position")
-        r_target = quaternion_to_matrix(_unit_quaternion(target_orientation))
+        r_target = _rotation(target_orientation, "target_orientation")
         n = self._world.substeps
         dt = self._world.time_step
         horizon = n * dt
+        pose = self._pose
 
-        dp = target - self._pos
-        dist = float(np.linalg.norm(dp))
+        dp = target - pose[3]
+        dist = _norm(dp)
         if dist > self.max_speed * horizon:
             dp *= self.max_speed * horizon / dist
             dist = self.max_speed * horizon
-        rv = matrix_to_rotvec(r_target @ self._rot.T)
-        ang = float(np.linalg.norm(rv))
+        rv = matrix_to_rotvec(r_target @ pose[:3].T)
+        ang = _norm(rv)
         if ang > self.max_angular_speed * horizon:
             rv *= self.max_angular_speed * horizon / ang
             ang = self.max_angular_speed * horizon
-        step_p = dp / n
-        step_r = rotvec_to_matrix(rv / n)
-        moving_rot = ang > 0.0
+        motion = self._motion
+        motion[3] = dp / n
+        motion[:3] = rotvec_to_matrix(rv / n)
+        turning = ang > 0.0
 
         obj = self._object
         skin = self._skin
-        prims = self._primitives()
         reach_obj = self._free_reach
         obj.sync()
+        angle = obj.joint_angle
         # Bound on any node's displacement per substep (translation + rotation x lever).
-        step_len = float(np.linalg.norm(step_p)) + ang / n * skin.reach + 1e-9
+        step_len = _norm(motion[3]) + ang / n * skin.reach + 1e-9
         obj_budget = abs(obj.joint_velocity) * horizon * reach_obj + 1e-3
-        sel = skin.select(prims, self._rot, self._pos, n * step_len + obj_budget)
-        q_sel = obj.joint_angle
-        tip_moved = 0.0
+        # An empty broad phase of an earlier step still holds while it covers this step's
+        # motion too (no node has a history to keep: the next selection records the frames).
+        # A non-empty one is selected afresh: the order of its candidates sets the order of
+        # the force sums (docs/design.md 3.5).
+        sel = self._selection
+        if (
+            sel is None
+            or len(sel.nodes)
+            or self._tip_moved + abs(angle - self._q_sel) * reach_obj + n * step_len + obj_budget
+            >= sel.reach
+        ):
+            sel = self._select(n * step_len + obj_budget, angle)
 
         limited = shell = False
         max_pen = max_force = 0.0
-        f_prev = skin.contact.force_norm
         limit = self.force_limit
         cid = self._world.client_id
         body = obj.body_id
+        reaction = self._reaction
+        pushed = False
+        pending = 0  # free-air substeps whose motion is not yet applied to ``pose``
         for k in range(n):
-            if not len(sel.nodes):
-                # Nothing within reach: skip the skin until the motion could close the gap.
-                angle = p.getJointState(body, 0, physicsClientId=cid)[0]
-                if tip_moved + step_len + abs(angle - q_sel) * reach_obj < sel.reach:
-                    if skin.contact.n_active:
-                        skin.commit(skin.evaluate(sel, prims, self._rot, self._pos, dt))
-                    self._pos = self._pos + step_p
-                    if moving_rot:
-                        self._rot = step_r @ self._rot
-                    tip_moved += step_len
-                    self.last_reaction = None
-                    self._world.step()
-                    f_prev = 0.0
-                    continue
             if k:
-                obj.sync()
-            moved = tip_moved + step_len + abs(obj.joint_angle - q_sel) * reach_obj
+                angle = p.getJointState(body, 0, physicsClientId=cid)[0]
+            moved = self._tip_moved + step_len + abs(angle - self._q_sel) * reach_obj
+            if not len(sel.nodes) and moved < sel.reach:
+                # Nothing within reach: the physics alone until the motion could close the gap.
+                if skin.n_active:
+                    skin.release()
+                pending += 1
+                self._tip_moved += step_len
+                pushed = False
+                p.stepSimulation(physicsClientId=cid)
+                continue
+            if pending:
+                _kernels.advance(pose, motion, turning, pending)
+                pending = 0
             if moved >= sel.reach:
                 # Moved further than the broad phase allowed for (the link sped up): select
                 # again for what is left of this control step.
+                obj.sync()
                 obj_budget = abs(obj.joint_velocity) * (n - k) * dt * reach_obj + 1e-3
-                sel = skin.select(prims, self._rot, self._pos, (n - k) * step_len + obj_budget)
-                q_sel = obj.joint_angle
-                tip_moved = 0.0
+                sel = self._select((n - k) * step_len + obj_budget, angle)
                 moved = step_len
-            pos_new = self._pos + step_p
-            rot_new = step_r @ self._rot if moving_rot else self._rot
-            contact = skin.evaluate(sel, prims, rot_new, pos_new, dt, moved)
-            f_new = contact.force_norm
-            if f_new > limit and f_new > f_prev:
-                limited = True
-                # Keep the sideways part of the translation and only the fraction of the
-                # advancing part that linear interpolation puts at the limit; no rotation.
-                f_dir = self._rot @ contact.wrench[:3] / f_new
-                push = min(float(step_p @ f_dir), 0.0)
-                frac = 0.9 * max(0.0, (limit - f_prev) / (f_new - f_prev))
-                pos_new = self._pos + step_p - (1.0 - frac) * push * f_dir
-                rot_new = self._rot
-                contact = skin.evaluate(sel, prims, rot_new, pos_new, dt, moved)
-                f_new = contact.force_norm
-                if f_new > limit and f_new > f_prev:
-                    pos_new = self._pos
-                    contact = skin.evaluate(sel, prims, rot_new, pos_new, dt, moved)
-                    f_new = contact.force_norm
-            skin.commit(contact)
-            if rot_new is self._rot:
-                tip_moved += float(np.linalg.norm(pos_new - self._pos))
-            else:
-                tip_moved += step_len
-            self._pos, self._rot = pos_new, rot_new
-            self._apply_reaction(contact)
-            self._world.step()
-            f_prev = f_new
-            max_pen = max(max_pen, contact.max_penetration)
-            shell = shell or contact.shell_contact
-            max_force = max(max_force, f_new)
+            step_limited, travelled, pushed, pen, step_shell, force = skin.substep(
+                sel,
+                pose,
+                motion,
+                turning,
+                step_len,
+                moved,
+                self._link,
+                self._link_row,
+                angle,
+                limit,
+                dt,
+                reaction,
+            )
+            self._tip_moved += travelled
+            limited = limited or step_limited
+            if pushed:
+                on_link, torque, centre = reaction.tolist()
+                p.applyExternalForce(body, 0, on_link, centre, p.WORLD_FRAME, physicsClientId=cid)
+                p.applyExternalTorque(body, 0, torque, p.WORLD_FRAME, physicsClientId=cid)
+            p.stepSimulation(physicsClientId=cid)
+            max_pen = max(max_pen, pen)
+            shell = shell or step_shell
+            max_force = max(max_force, force)
+        if pending:
+            _kernels.advance(pose, motion, turning, pending)
+        #: (force, torque about the COM, COM) last applied to the free link, world frame.
+        self.last_reaction = (
+            (reaction[0].copy(), reaction[1].copy(), reaction[2].copy()) if pushed else None
+        )
         obj.sync()
         return StepInfo(
             force_limited=limited,
-            shell_contact=shell,
+            shell_contact=bool(shell),
             max_penetration=max_pen,
-            n_active_nodes=skin.contact.n_active,
+            n_active_nodes=skin.n_active,
             max_force=max_force,
         )
 
-    def _apply_reaction(self, contact: Contact) -> None:
-        reaction = contact.reaction(FREE_BODY)
-        if reaction is None:
-            self.last_reaction = None
-            return
-        force, torque = reaction
-        com = self._object.free_box.center.copy()
-        self._object.apply_wrench(force, torque)
-        #: (force, torque about the COM, COM) last applied to the free link, world frame.
-        self.last_reaction = (force, torque, com)
+    def _select(self, motion_bound: float, angle: float) -> Selection:
+        """Broad phase at the committed pose; the free link's primitive as the object has it."""
+        prims = self._prims
+        sel = self._skin.select(prims, self._pose[:3], self._pose[3], motion_bound)
+        self._selection = sel
+        self._tip_moved = 0.0
+        self._q_sel = angle
+        self._link_row = sel.prims.index(self._free) if self._free in sel.prims else -1
+        return sel
 
     # --- sensing -------------------------------------------------------------------------
 
@@ -373,33 +430,29 @@ class ProbeScene:
     @property
     def fingertip_position(self) -> np.ndarray:
         """(3,) sensor origin, world frame, m."""
-        return self._pos.copy()
+        return self._pose[3].copy()
 
     @property
     def fingertip_orientation(self) -> np.ndarray:
         """(4,) quaternion x y z w, sensor to world."""
-        return matrix_to_quaternion(self._rot)
+        return matrix_to_quaternion(self._pose[:3])
 
     @property
     def fingertip_rotation(self) -> np.ndarray:
         """(3, 3) rotation, sensor to world."""
-        return self._rot.copy()
+        return self._pose[:3].copy()
 
     def sensor_to_world_point(self, points) -> np.ndarray:
         """Points (3,) or (N, 3) from the sensor frame to the world frame, m."""
-        return np.asarray(points, dtype=float) @ self._rot.T + self._pos
+        return np.asarray(points, dtype=float) @ self._pose[:3].T + self._pose[3]
 
     def sensor_to_world_vector(self, vectors) -> np.ndarray:
         """Directions (3,) or (N, 3) from the sensor frame to the world frame."""
-        return np.asarray(vectors, dtype=float) @ self._rot.T
-
-    def world_to_sensor_point(self, points) -> np.ndarray:
-        """Points (3,) or (N, 3) from the world frame to the sensor frame, m."""
-        return (np.asarray(points, dtype=float) - self._pos) @ self._rot
+        return np.asarray(vectors, dtype=float) @ self._pose[:3].T
 
     def world_to_sensor_vector(self, vectors) -> np.ndarray:
         """Directions (3,) or (N, 3) from the world frame to the sensor frame."""
-        return np.asarray(vectors, dtype=float) @ self._rot
+        return np.asarray(vectors, dtype=float) @ self._pose[:3]
 
     @property
     def joint_angle(self) -> float:
@@ -463,7 +516,7 @@ class ProbeScene:
         cid = self._world.client_id
         p.resetBasePositionAndOrientation(
             self._fingertip_visual,
-            self._pos.tolist(),
+            self._pose[3].tolist(),
             self.fingertip_orientation.tolist(),
             physicsClientId=cid,
         )

@@ -54,12 +54,16 @@ of the node set) and then nodes are kept if their signed distance is below the m
 plus ``margin``, sorted by that distance. Signed distances are 1-Lipschitz, so a node
 that started at distance d cannot touch before the fingertip and object have moved d
 relative to each other: each substep (``evaluate``) evaluates only the prefix of candidates
-whose starting distance is below the motion so far.
+whose starting distance is below the motion so far. The same bounds give a selection without
+candidates its clearance: no node can touch anything before that much relative motion, so
+the scene keeps it over several control steps (docs/design.md 3.5).
 
 The broad phase, the per-substep node loop (narrow phase, forces, stick-slip, wrench) and
 committing the state are compiled kernels (:mod:`tactile_gym.sim._kernels`): a few hundred
-nodes are too few to amortise NumPy's per-call cost. ``Contact`` keeps the kernel's output
-and builds its per-node views and dictionaries on demand.
+nodes are too few to amortise NumPy's per-call cost. ``substep`` runs a whole physics
+substep of the skin (the fingertip's motion, the guarded move, evaluation, commit) in one
+call (docs/design.md 3.5). ``Contact`` keeps the kernel's output and builds its per-node
+views and dictionaries on demand; the committed one is built only when asked for.
 """
 
 from __future__ import annotations
@@ -88,11 +92,14 @@ class Selection:
         areas: (M,) their areas, m^2.
         distance: (M,) ascending signed distance to the nearest primitive at selection, m.
         prims: indices (into the primitive list) of primitives near the fingertip.
-        reach: motion bound (plus margin) the selection covers, m.
+        reach: motion bound (plus margin) the selection covers, m; without candidates, the
+            clearance of every node from every primitive if that is larger.
         shapes, prim_info: those primitives' shapes and (index, kind), as the kernels take
             them (:mod:`tactile_gym.sim._kernels`).
         prim_rows: (P,) int64, ``prims`` as an array.
         poses: (P + 1, 4, 3) buffer for the poses of each evaluation.
+        kernel_args: the arguments of ``_kernels.substep`` that are fixed while this
+            selection is in use (built once: a substep's call is then one tuple).
     """
 
     nodes: np.ndarray
@@ -105,6 +112,7 @@ class Selection:
     prim_info: np.ndarray
     prim_rows: np.ndarray
     poses: np.ndarray
+    kernel_args: tuple = ()
 
 
 class Contact:
@@ -338,17 +346,41 @@ class SoftSkin:
         # Frames (x_primitive = A x_sensor + b) of every primitive at the last committed
         # pose (or ``select``): where a node came from, to find where it entered a box.
         self._prev_frames = np.zeros((0, 4, 3))
-        self.contact = _EMPTY
+        # The committed contact: a Contact, or the kernel's raw output (built on demand).
+        self._contact: Contact | None = _EMPTY
+        self._raw: tuple | None = None
+        self._raw_prims: tuple[list[int], np.ndarray] = ([], _EMPTY._prim_rows)
+        self._ids = _EMPTY._node_ids
+        #: Nodes in contact in the committed contact.
+        self.n_active = 0
+        #: |force| of the committed contact, N.
+        self.force_norm = 0.0
 
     @property
     def n_nodes(self) -> int:
         return len(self.points)
 
+    @property
+    def contact(self) -> Contact:
+        """The committed contact."""
+        if self._contact is None:
+            self._contact = Contact(*self._raw, *self._raw_prims)
+            self._raw = None
+        return self._contact
+
+    def _set(self, contact: Contact) -> None:
+        self._contact, self._raw = contact, None
+        self._ids, self.n_active, self.force_norm = (
+            contact._node_ids,
+            contact.n_active,
+            contact.force_norm,
+        )
+
     def reset(self) -> None:
         """Forget all contact state (anchors, previous penetration)."""
         self._prim.fill(-1)
         self._delta.fill(0.0)
-        self.contact = _EMPTY
+        self._set(_EMPTY)
 
     # --- broad phase ---------------------------------------------------------------------
 
@@ -377,7 +409,7 @@ class SoftSkin:
         prim_info = np.array([range(len(primitives)), kinds], dtype=np.int64).T.copy()
         poses = np.empty((len(primitives) + 1, 4, 3))
         _fill_poses(poses, primitives, rotation, position)
-        nodes, points, areas, dist, hits, frames = _kernels.select(
+        nodes, points, areas, dist, hits, frames, clearance = _kernels.select(
             self.points,
             self.areas,
             self._cl_center,
@@ -395,18 +427,40 @@ class SoftSkin:
         # teleport, where every node then lacks a history).
         self._prev_frames = frames
         near = np.flatnonzero(hits)
-        return Selection(
+        near_poses = np.empty((len(near) + 1, 4, 3))
+        _fill_poses(near_poses, [primitives[j] for j in near], rotation, position)
+        sel = Selection(
             nodes=nodes,
             points=points,
             areas=areas,
             distance=dist,
             prims=near.tolist(),
-            reach=reach,
+            # Without candidates, no node can touch before the motion reaches the clearance.
+            reach=reach if len(nodes) else max(reach, clearance),
             shapes=shapes[near],
             prim_info=prim_info[near],
             prim_rows=near.astype(np.int64),
-            poses=np.empty((len(near) + 1, 4, 3)),
+            poses=near_poses,
         )
+        sel.kernel_args = (
+            points,
+            areas,
+            nodes,
+            dist,
+            near_poses,
+            frames,
+            sel.shapes,
+            sel.prim_info,
+            sel.prim_rows,
+            self._prim,
+            self._anchor,
+            self._delta,
+            self.k_n,
+            self.k_t,
+            self.mu,
+            self.thickness,
+        )
+        return sel
 
     # --- narrow phase and forces ---------------------------------------------------------
 
@@ -457,18 +511,81 @@ class SoftSkin:
 
     def commit(self, contact: Contact) -> None:
         """Make ``contact`` the skin's state (anchors, penetration) for the next step."""
-        old = self.contact
         _kernels.commit(
             self._prim,
             self._anchor,
             self._delta,
             self._prev_frames,
-            old._node_ids,
-            old.n_active,
+            self._ids,
+            self.n_active,
             contact._node_ids,
             contact._node_data,
             contact.n_active,
             contact._prim_data,
             contact._prim_rows,
         )
-        self.contact = contact
+        self._set(contact)
+
+    def substep(
+        self,
+        selection: Selection,
+        pose: np.ndarray,
+        motion: np.ndarray,
+        turning: bool,
+        step_len: float,
+        moved: float,
+        link: np.ndarray,
+        link_row: int,
+        angle: float,
+        limit: float,
+        dt: float,
+        reaction: np.ndarray,
+    ) -> tuple[bool, float, bool, float, bool, float]:
+        """One physics substep in one compiled call (``_kernels.substep``): advance the
+        fingertip ``pose`` by ``motion`` under the guarded move, evaluate and commit.
+
+        Args:
+            selection: from ``select``; its ``poses`` hold the primitives' poses.
+            pose: (4, 3) fingertip rotation (sensor to world) and position, updated in place.
+            motion: (4, 3) per-substep rotation (applied when ``turning``) and translation.
+            step_len: bound on any node's displacement in one substep of ``motion``, m.
+            moved: bound on the relative motion of any node and primitive since ``select``
+                after this substep, m.
+            link, link_row, angle: the primitive on the revolute link (row of the selection,
+                -1 if not in it), posed at ``angle`` rad (``_kernels.link_pose``).
+            limit: guarded-move limit on |f|, N.
+            dt: time since the last committed evaluation, s.
+            reaction: (3, 3) out: force and torque on the link's primitive (world frame,
+                about its centre) and its centre, when it is touched.
+
+        Returns:
+            (limited, travelled, pushed, max_penetration, shell_contact, force_norm): the
+            guard held the fingertip back; the bound on node displacement this substep, m;
+            the link's primitive is touched (``reaction``); the committed contact's largest
+            penetration (m), shell contact and |f| (N).
+        """
+        out, limited, travelled, pushed = _kernels.substep(
+            *selection.kernel_args,
+            self._ids,
+            self.n_active,
+            moved,
+            pose,
+            motion,
+            turning,
+            step_len,
+            link,
+            link_row,
+            angle,
+            self.force_norm,
+            limit,
+            self.c_n / dt,
+            reaction,
+        )
+        self._contact, self._raw = None, out
+        self._raw_prims = (selection.prims, selection.prim_rows)
+        self.n_active, self.force_norm, self._ids = out[0], out[3], out[7]
+        return limited, travelled, pushed, out[1], out[2], out[3]
+
+    def release(self) -> None:
+        """Let go: commit the empty contact (nothing is within reach)."""
+        self.commit(_EMPTY)

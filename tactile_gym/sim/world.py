@@ -2,16 +2,17 @@
 
 Frames: world frame, z up, the table top is the plane z = 0. Units: SI.
 
-Each :class:`World` connects its own client (DIRECT unless ``gui=True``), so several worlds in
-one process never see each other's bodies. Hot-path calls go straight to ``pybullet`` with the
-client id: ``BulletClient.__getattr__`` builds a ``functools.partial`` on every call, which
-costs more than a ``stepSimulation`` of this small scene.
+Each :class:`World` connects its own client (DIRECT unless ``gui=True``) with
+``pybullet.connect`` and keeps the id it returns, so several worlds in one process never see
+each other's bodies. Every call goes straight to ``pybullet`` with that ``physicsClientId``:
+no ``BulletClient`` wrapper, whose ``__getattr__`` builds a ``functools.partial`` on every call
+(dearer than a ``stepSimulation`` of this small scene) and whose ``__del__`` would disconnect
+on its own.
 """
 
 from __future__ import annotations
 
 import pybullet as p
-from pybullet_utils.bullet_client import BulletClient
 
 __all__ = ["SUBSTEPS", "TIME_STEP", "World"]
 
@@ -45,10 +46,12 @@ class World:
         self.time_step = float(time_step)
         self.substeps = int(substeps)
         self.gui = bool(gui)
-        self._bc: BulletClient | None = BulletClient(p.GUI if gui else p.DIRECT)
-        self.client_id: int = self._bc._client
+        self._connected = False
+        #: PyBullet's id of this world's client (``physicsClientId`` of every call).
+        self.client_id: int = p.connect(p.GUI if gui else p.DIRECT)
         if self.client_id < 0:
             raise RuntimeError("could not connect a PyBullet client")
+        self._connected = True
         cid = self.client_id
         p.setTimeStep(self.time_step, physicsClientId=cid)
         p.setGravity(*gravity, physicsClientId=cid)
@@ -80,10 +83,10 @@ class World:
     @property
     def connected(self) -> bool:
         """Whether the client is still open."""
-        return self._bc is not None
+        return self._connected
 
     def _require(self) -> int:
-        if self._bc is None:
+        if not self._connected:
             raise RuntimeError("this World is closed")
         return self.client_id
 
@@ -99,20 +102,15 @@ class World:
         """Restore a snapshot taken with ``save_state`` (same bodies must exist)."""
         p.restoreState(stateId=state_id, physicsClientId=self._require())
 
-    def remove_state(self, state_id: int) -> None:
-        """Free a snapshot."""
-        p.removeState(state_id, physicsClientId=self._require())
-
     def close(self) -> None:
         """Disconnect the client; safe to call more than once."""
-        if self._bc is None:
+        if not self._connected:
             return
+        self._connected = False
         try:
             p.disconnect(physicsClientId=self.client_id)
         except p.error:
-            pass
-        self._bc._client = -1  # keeps BulletClient.__del__ from disconnecting again
-        self._bc = None
+            pass  # the server is already gone (a GUI window closed by hand)
 
     def __enter__(self) -> World:
         return self
