@@ -422,8 +422,7 @@ class HingeProbeEnv(gym.Env):
         position, rotation = self.controller.target(
             action, scene.fingertip_position, scene.fingertip_rotation
         )
-        # ProbeScene.control_step takes a quaternion until the sim takes the matrix itself.
-        step_info = scene.control_step(position, matrix_to_quaternion(rotation))
+        step_info = scene.control_step(position, rotation)
         self._wrench = scene.read_wrench(self.np_random)
         added = self.pipeline.step(self._wrench, scene.fingertip_rotation, scene.fingertip_position)
         self._steps += 1
