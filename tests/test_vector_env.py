@@ -225,3 +225,77 @@ def test_sub_env_access_and_rendering():
     frames = envs.render()
     assert len(frames) == 2 and frames[0].ndim == 3
     envs.close()
+
+
+# ---------------------------------------------------------------------- the SB3 adapter
+def _sb3_reference(env_id: str, n_envs: int, **kwargs):
+    """SB3's own in-process VecEnv over ``gym.make``: what the adapter must give."""
+    dummy = pytest.importorskip("stable_baselines3.common.vec_env").DummyVecEnv
+    return dummy([lambda: gym.make(env_id, **kwargs) for _ in range(n_envs)])
+
+
+@pytest.mark.parametrize("env_id", [ENV_IDS[1], ENV_IDS[3]])
+def test_sb3_adapter_matches_dummy_vec_env(env_id):
+    vec_env = pytest.importorskip("agents.vec_env")
+    kwargs = SHORT[_primitive(env_id)]
+    ours = vec_env.make_sb3_vec_env(env_id, 2, **kwargs)
+    reference = _sb3_reference(env_id, 2, **kwargs)
+    assert ours.observation_space == reference.observation_space
+    assert ours.action_space == reference.action_space
+    for env in (ours, reference):
+        env.seed(3)
+    assert data_equivalence(ours.reset(), dict(reference.reset()), exact=True)
+    assert data_equivalence(ours.reset_infos, reference.reset_infos, exact=True)
+    rng = np.random.default_rng(0)
+    dones = 0
+    for _ in range(6):
+        actions = rng.uniform(-1, 1, (2, *ours.action_space.shape)).astype(np.float32)
+        ours.step_async(actions)
+        reference.step_async(actions)
+        got, (obs, *want) = ours.step_wait(), reference.step_wait()
+        assert data_equivalence(got, (dict(obs), *want), exact=True)  # DummyVecEnv: OrderedDict
+        assert data_equivalence(ours.reset_infos, reference.reset_infos, exact=True)
+        dones += int(got[2].sum())
+    assert dones >= 2  # terminal_observation and TimeLimit.truncated were compared
+    assert ours.get_attr("render_mode") == [None, None]
+    space = ("get_wrapper_attr", "dict_observation_space")
+    assert ours.env_method(*space, indices=[1]) == reference.env_method(*space, indices=[1])
+    ours.set_attr("probe_note", "a", indices=0)
+    ours.set_attr("probe_note", "b", indices=[1])
+    assert ours.get_attr("probe_note") == ["a", "b"]
+    assert ours.env_is_wrapped(gym.Wrapper) == [_primitive(env_id)] * 2
+    ours.close()
+    ours.close()
+    reference.close()
+
+
+def test_sb3_adapter_rejects_the_wrong_autoreset_and_works_with_sb3_wrappers():
+    vec_env = pytest.importorskip("agents.vec_env")
+    sb3 = pytest.importorskip("stable_baselines3.common.vec_env")
+    with pytest.raises(ValueError, match="SAME_STEP"):
+        vec_env.HingeProbeSB3VecEnv(_make_vec(ENV_IDS[0], 1))
+    env = sb3.VecNormalize(
+        sb3.VecMonitor(
+            sb3.VecCheckNan(
+                vec_env.make_sb3_vec_env(ENV_IDS[0], 2, max_steps=3), raise_exception=True
+            )
+        )
+    )
+    env.seed(0)
+    env.reset()
+    episodes = []
+    for _ in range(4):
+        obs, rewards, dones, infos = env.step(np.zeros((2, 6), np.float32))
+        episodes += [info["episode"]["l"] for info in infos if "episode" in info]
+    assert episodes == [3, 3]  # VecMonitor saw both sub-envs' ends
+    env.close()
+
+
+def test_ppo_learns_on_the_adapter_for_a_few_hundred_steps():
+    ppo = pytest.importorskip("stable_baselines3").PPO
+    vec_env = pytest.importorskip("agents.vec_env")
+    env = vec_env.make_sb3_vec_env(ENV_IDS[0], 2, max_steps=50)
+    model = ppo("MultiInputPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0)
+    model.learn(total_timesteps=256)
+    assert model.num_timesteps == 256
+    env.close()
