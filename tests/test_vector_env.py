@@ -40,7 +40,8 @@ def test_make_vec_gives_the_vector_env_with_gymnasium_conventions(env_id):
     envs = _make_vec(env_id, 2)
     assert isinstance(envs, HingeProbeVectorEnv) and isinstance(envs, VectorEnv)
     # Without a mode, make_vec picks the vector entry point too.
-    assert isinstance(gym.make_vec(env_id, num_envs=1), HingeProbeVectorEnv)
+    default = gym.make_vec(env_id, num_envs=1)
+    assert isinstance(default, HingeProbeVectorEnv)
     single = gym.make(env_id)
     assert envs.metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP
     assert envs.single_observation_space == single.observation_space
@@ -59,10 +60,10 @@ def test_make_vec_gives_the_vector_env_with_gymnasium_conventions(env_id):
     flat = _make_vec(env_id, 2, observation_mode="flat")
     flat_obs, _ = flat.reset(seed=0)
     space = single.get_wrapper_attr("dict_observation_space")
-    first, _ = gym.make(env_id).reset(seed=0)
+    first, _ = single.reset(seed=0)
     assert flat_obs.shape == (2, gym.spaces.flatdim(space))
     np.testing.assert_array_equal(flat_obs[0], gym.spaces.flatten(space, first))
-    for env in (envs, flat, single):
+    for env in (envs, default, flat, single):
         env.close()
 
 
@@ -176,8 +177,9 @@ def test_disabled_autoreset_and_masked_reset():
         envs.step(actions)
     obs, info = envs.reset(seed=[None, 1], options={"reset_mask": np.array([False, True])})
     assert info["_is_success"].tolist() == [False, True]
-    reference, _ = gym.make(ENV_IDS[0]).reset(seed=1)
-    assert data_equivalence(_row(obs, 1), reference, exact=True)
+    single = gym.make(ENV_IDS[0])
+    assert data_equivalence(_row(obs, 1), single.reset(seed=1)[0], exact=True)
+    single.close()
     with pytest.raises(ValueError, match="reset_mask"):
         envs.reset(options={"reset_mask": np.array([False, False])})
     envs.close()
@@ -207,6 +209,8 @@ def test_bad_input_and_closing():
         _make_vec(ENV_IDS[0], 1, autoreset_mode="sometimes")
     with pytest.raises(ValueError, match="unknown HingeProbe keyword"):
         _make_vec(ENV_IDS[0], 1, max_stepz=3)
+    with pytest.raises(ValueError, match="render_mode='human'.*num_envs=2"):
+        _make_vec(ENV_IDS[0], 2, render_mode="human")
     envs.close()
     envs.close()  # twice is safe
     assert envs.closed

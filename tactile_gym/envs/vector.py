@@ -79,8 +79,9 @@ class HingeProbeVectorEnv(VectorEnv):
             every sub-env.
 
     Raises:
-        ValueError: ``num_envs`` not an integer in [1, ``MAX_NUM_ENVS``], or an unknown
-            ``autoreset_mode``; the sub-env's own errors for its keywords.
+        ValueError: ``num_envs`` not an integer in [1, ``MAX_NUM_ENVS``], an unknown
+            ``autoreset_mode``, ``render_mode="human"`` with more than one sub-env; the
+            sub-env's own errors for its keywords.
     """
 
     def __init__(
@@ -98,6 +99,11 @@ class HingeProbeVectorEnv(VectorEnv):
             raise ValueError(
                 f"autoreset_mode must be one of {allowed}, got {autoreset_mode!r}"
             ) from None
+        if kwargs.get("render_mode") == "human" and self.num_envs > 1:
+            raise ValueError(
+                "render_mode='human' opens PyBullet's GUI, which one process can open once;"
+                f" got num_envs={self.num_envs}. Use num_envs=1 or render_mode='rgb_array'."
+            )
         self.envs: list[gym.Env] = []
         try:
             for _ in range(self.num_envs):
