@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import data_equivalence
 from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.wrappers.vector import FlattenObservation, RecordEpisodeStatistics
 
 from tactile_gym import ENV_IDS
 from tactile_gym.envs.vector import MAX_NUM_ENVS, HingeProbeVectorEnv
@@ -182,6 +183,18 @@ def test_disabled_autoreset_and_masked_reset():
     single.close()
     with pytest.raises(ValueError, match="reset_mask"):
         envs.reset(options={"reset_mask": np.array([False, False])})
+    envs.close()
+
+
+def test_gymnasiums_vector_wrappers_work_on_it():
+    base = _make_vec(ENV_IDS[0], 2, max_steps=2)
+    envs = FlattenObservation(RecordEpisodeStatistics(base))
+    obs, _ = envs.reset(seed=0)
+    assert obs.shape == (2, gym.spaces.flatdim(base.single_observation_space))
+    actions = np.zeros((2, 6), np.float32)
+    envs.step(actions)
+    *_, truncated, info = envs.step(actions)
+    assert truncated.all() and info["episode"]["l"].tolist() == [2, 2]
     envs.close()
 
 
