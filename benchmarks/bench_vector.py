@@ -3,15 +3,16 @@
     python benchmarks/bench_vector.py [--n-envs 1 4 16 64] [--control-steps 800]
                                       [--ids tactile_gym/HingeProbe-v1 ...]
 
-Two tables. The first times bare ``stepSimulation`` (one control step's substeps) for N scenes
-laid out as N PyBullet clients of one object each, or one client holding N objects, which
-is the choice behind the vector env's layout. The second, per id, steps
-``gym.make_vec(id, num_envs=N)`` with random actions and with the scripted baseline
-(``agents.scripted.scripted_policy``, one per sub-env) and gives the wall time per sub-env
-control step as a multiple of bare physics (``bench_env.bare_physics_per_control_step`` on a
-sub-env's scene after the row, the least of three calls), and sub-env steps/s (primitives for
-the primitive ids). The first reset is not timed; ended sub-envs are reset within a step
-(same-step autoreset, as SB3 trains), so those resets are timed with their step.
+A sub-env's memory and build time, then two tables. The first times bare ``stepSimulation``
+(one control step's substeps) for N scenes laid out as N PyBullet clients of one object each,
+or one client holding N objects, which is the choice behind the vector env's layout. The
+second, per id, steps ``gym.make_vec(id, num_envs=N)`` with random actions and with the
+scripted baseline (``agents.scripted.scripted_policy``, one per sub-env) and gives the wall
+time per sub-env control step as a multiple of bare physics
+(``bench_env.bare_physics_per_control_step`` on a sub-env's scene after the row, the least of
+three calls), and sub-env steps/s (primitives for the primitive ids). The first reset is not
+timed; ended sub-envs are reset within a step (same-step autoreset, as SB3 trains), so those
+resets are timed with their step.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ from tactile_gym.sim.objects import HingedObject  # noqa: E402
 from tactile_gym.sim.world import SUBSTEPS, World  # noqa: E402
 
 
-def physics_layouts(n: int, rounds: int = 3) -> dict[str, float]:
+def physics_layouts(n: int, rounds: int = 9) -> dict[str, float]:
     """Seconds of ``stepSimulation`` per control step for ``n`` hinged objects, as ``n``
     clients of one object or one client of ``n``; each link is pushed round its hinge (beyond
     the joint's holding torque) as the skin pushes it. The best of ``rounds`` alternating
@@ -75,6 +76,27 @@ def physics_layouts(n: int, rounds: int = 3) -> dict[str, float]:
     for world in (*worlds, shared_world):
         world.close()
     return times
+
+
+def resident_mib() -> float:
+    """This process's resident memory, MiB (Linux; NaN elsewhere)."""
+    try:
+        with open("/proc/self/statm") as statm:
+            return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except OSError:
+        return float("nan")
+
+
+def footprint(env_id: str, n: int = 16) -> str:
+    """Memory and time to make and reset one sub-env, over ``n`` of them, after one env has
+    paid the process's one-time costs (the reset distribution's prior, compiled kernels)."""
+    gym.make(env_id).reset(seed=0)
+    before, start = resident_mib(), time.perf_counter()
+    envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    envs.reset(seed=0)
+    seconds, mib = (time.perf_counter() - start) / n, (resident_mib() - before) / n
+    envs.close()
+    return f"`{env_id}`: {mib:.0f} MiB and {seconds:.2f} s to make and reset per sub-env (N = {n})"
 
 
 def time_vector(env_id: str, n: int, policy: str, control_steps: int) -> dict[str, float]:
@@ -173,6 +195,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--ids", nargs="+", default=["tactile_gym/HingeProbe-v1"])
     args = parser.parse_args(argv)
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the start\n")
+    print(footprint(args.ids[0]))
+    print()
     print(layout_table(args.n_envs))
     for env_id in args.ids:
         print()
