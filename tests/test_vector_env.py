@@ -74,7 +74,7 @@ def test_sub_env_i_is_gym_make_with_its_seed_across_autoresets(env_id):
     seeds = [11, 3, 7]
     envs = _make_vec(env_id, len(seeds), **kwargs)
     singles = [gym.make(env_id, **kwargs) for _ in seeds]
-    obs, _ = envs.reset(seed=seeds)
+    obs, _ = envs.reset(seed=np.array(seeds) if _primitive(env_id) else seeds)
     expected = [env.reset(seed=s)[0] for env, s in zip(singles, seeds)]
     envs.action_space.seed(0)
     ended = [False] * len(seeds)

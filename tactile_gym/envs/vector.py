@@ -132,7 +132,7 @@ class HingeProbeVectorEnv(VectorEnv):
 
         Args:
             seed: ``None`` (fresh entropy), an int s (sub-env i gets s + i, as Gymnasium's
-                vector envs do) or one seed (or ``None``) per sub-env.
+                vector envs do) or one seed (or ``None``) per sub-env in a list, tuple or array.
             options: passed to every sub-env's ``reset``; ``reset_mask`` (a bool array of
                 shape ``(num_envs,)``) picks which sub-envs to reset.
 
@@ -243,6 +243,8 @@ class HingeProbeVectorEnv(VectorEnv):
             return [None] * n
         if isinstance(seed, Integral) and not isinstance(seed, (bool, np.bool_)):
             return [int(seed) + i for i in range(n)]
+        if isinstance(seed, np.ndarray) and seed.ndim == 1:
+            seed = seed.tolist()
         if not isinstance(seed, (list, tuple)):
             raise ValueError(
                 f"seed must be None, an int or a list of {n} seeds (one per sub-env), got {seed!r}"
