@@ -6,6 +6,7 @@ Importing the package registers its environments with Gymnasium::
     import tactile_gym  # noqa: F401
 
     env = gym.make("tactile_gym/HingeProbe-v1")
+    envs = gym.make_vec("tactile_gym/HingeProbe-v1", num_envs=4)  # N scenes, one process
 
 ``tactile_gym.sensing`` and ``tactile_gym.estimation`` import without pybullet; the
 environment modules are only imported when an env is made.
@@ -37,21 +38,25 @@ ENV_IDS: tuple[str, ...] = (
 register(
     id="tactile_gym/HingeProbe-v1",
     entry_point="tactile_gym.envs.hinge_probe_v1:HingeProbeEnv",
+    vector_entry_point="tactile_gym.envs.vector:make_vector_env",
     kwargs=_PLANAR,
 )
 register(
     id="tactile_gym/HingeProbe3D-v1",
     entry_point="tactile_gym.envs.hinge_probe_v1:HingeProbeEnv",
+    vector_entry_point="tactile_gym.envs.vector:make_vector_env",
     kwargs=_3D,
 )
 register(
     id="tactile_gym/HingeProbePrimitive-v1",
     entry_point="tactile_gym.envs.hinge_probe_primitive_v1:make_primitive_env",
+    vector_entry_point="tactile_gym.envs.vector:make_primitive_vector_env",
     kwargs=_PLANAR,
 )
 register(
     id="tactile_gym/HingeProbe3DPrimitive-v1",
     entry_point="tactile_gym.envs.hinge_probe_primitive_v1:make_primitive_env",
+    vector_entry_point="tactile_gym.envs.vector:make_primitive_vector_env",
     kwargs=_3D,
 )
 

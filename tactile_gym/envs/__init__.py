@@ -5,6 +5,7 @@ One env class per versioned file, joined from parts that know nothing of each ot
 
 * ``hinge_probe_v1``: ``HingeProbeEnv``, the 6-D ids, and ``HingeProbeConfig``.
 * ``hinge_probe_primitive_v1``: the primitive ids, a ``gym.Wrapper`` over the 6-D env.
+* ``vector``: the vector env of every id (N sub-envs in one process).
 * ``controller``: normalised actions to fingertip pose targets.
 * ``measurement``: the measurement pipeline (touch sensing, the gate, the estimator); the
   only module here that imports the probing stack.

@@ -1,0 +1,318 @@
+"""The vector env of every id (``tactile_gym/envs/vector.py``, ``docs/design.md`` 7.9).
+
+Sub-env i must be ``gym.make(id)`` with the same seed and actions, across autoresets; one
+sub-env's end must not disturb the others; the vector env must behave as Gymnasium's own
+``SyncVectorEnv`` over ``gym.make`` (the reference implementation of the conventions; the
+installed Gymnasium ships no vector env checker) and reject bad input by name.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import data_equivalence
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.wrappers.vector import FlattenObservation, RecordEpisodeStatistics
+
+from tactile_gym import ENV_IDS
+from tactile_gym.envs.vector import MAX_NUM_ENVS, HingeProbeVectorEnv
+
+#: Short episodes, so that a few steps cross an autoreset.
+SHORT = {True: {"max_primitives": 2}, False: {"max_steps": 4}}
+
+
+def _primitive(env_id: str) -> bool:
+    return "Primitive" in env_id
+
+
+def _make_vec(env_id: str, num_envs: int, **kwargs) -> VectorEnv:
+    return gym.make_vec(
+        env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs
+    )
+
+
+def _row(obs, i: int):
+    return {k: v[i] for k, v in obs.items()} if isinstance(obs, dict) else obs[i]
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_make_vec_gives_the_vector_env_with_gymnasium_conventions(env_id):
+    envs = _make_vec(env_id, 2)
+    assert isinstance(envs, HingeProbeVectorEnv) and isinstance(envs, VectorEnv)
+    # Without a mode, make_vec picks the vector entry point too.
+    default = gym.make_vec(env_id, num_envs=1)
+    assert isinstance(default, HingeProbeVectorEnv)
+    single = gym.make(env_id)
+    assert envs.metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP
+    assert envs.single_observation_space == single.observation_space
+    assert envs.single_action_space == single.action_space
+    assert envs.action_space.shape == (2, *single.action_space.shape)
+    obs, info = envs.reset(seed=0)
+    assert envs.observation_space.contains(obs)
+    assert all(v.shape[0] == 2 for v in obs.values())
+    obs, rewards, terminated, truncated, info = envs.step(envs.action_space.sample())
+    assert envs.observation_space.contains(obs)
+    assert rewards.shape == terminated.shape == truncated.shape == (2,)
+    assert rewards.dtype == np.float64 and terminated.dtype == truncated.dtype == np.bool_
+    # Infos batched the Gymnasium way: one entry per sub-env and a mask.
+    assert info["position_error"].shape == (2,) and info["_position_error"].all()
+    assert info["termination"]["left_workspace"].shape == (2,)
+    flat = _make_vec(env_id, 2, observation_mode="flat")
+    flat_obs, _ = flat.reset(seed=0)
+    space = single.get_wrapper_attr("dict_observation_space")
+    first, _ = single.reset(seed=0)
+    assert flat_obs.shape == (2, gym.spaces.flatdim(space))
+    np.testing.assert_array_equal(flat_obs[0], gym.spaces.flatten(space, first))
+    for env in (envs, default, flat, single):
+        env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_sub_env_i_is_gym_make_with_its_seed_across_autoresets(env_id):
+    kwargs = SHORT[_primitive(env_id)]
+    seeds = [11, 3, 7]
+    envs = _make_vec(env_id, len(seeds), **kwargs)
+    singles = [gym.make(env_id, **kwargs) for _ in seeds]
+    obs, _ = envs.reset(seed=np.array(seeds) if _primitive(env_id) else seeds)
+    expected = [env.reset(seed=s)[0] for env, s in zip(singles, seeds)]
+    envs.action_space.seed(0)
+    ended = [False] * len(seeds)
+    autoresets, lengths = 0, set()
+    for _ in range(7):
+        for i, want in enumerate(expected):
+            assert data_equivalence(_row(obs, i), want, exact=True), i
+        actions = envs.action_space.sample()
+        obs, rewards, terminated, truncated, info = envs.step(actions)
+        expected = []
+        for i, env in enumerate(singles):
+            if ended[i]:  # NEXT_STEP: this step resets it, as reset() without a seed would
+                want, _ = env.reset()
+                autoresets += 1
+                assert rewards[i] == 0.0 and not (terminated[i] or truncated[i])
+                ended[i] = False
+            else:
+                want, reward, term, trunc, single_info = env.step(actions[i])
+                assert (rewards[i], terminated[i], truncated[i]) == (reward, term, trunc)
+                assert info["position_error"][i] == single_info["position_error"]
+                lengths.add(single_info.get("steps"))
+                ended[i] = term or trunc
+            expected.append(want)
+    assert autoresets >= len(seeds)
+    if _primitive(env_id):  # primitives of different lengths ran side by side
+        assert len(lengths) > 1, lengths
+    envs.close()
+    for env in singles:
+        env.close()
+
+
+@pytest.mark.parametrize("env_id", [ENV_IDS[0], ENV_IDS[2]])
+def test_the_vector_env_matches_gymnasiums_sync_vector_env(env_id):
+    kwargs = SHORT[_primitive(env_id)]
+    ours = _make_vec(env_id, 2, **kwargs)
+    reference = gym.make_vec(env_id, num_envs=2, vectorization_mode="sync", **kwargs)
+    assert ours.metadata["autoreset_mode"] == reference.metadata["autoreset_mode"]
+    assert data_equivalence(ours.reset(seed=5), reference.reset(seed=5), exact=True)
+    ours.action_space.seed(1)
+    for _ in range(6):
+        actions = ours.action_space.sample()
+        assert data_equivalence(ours.step(actions), reference.step(actions), exact=True)
+    ours.close()
+    reference.close()
+
+
+def test_one_sub_envs_termination_leaves_the_others_alone():
+    env_id, kwargs = ENV_IDS[0], {"task": {"workspace_radius": 0.12}}
+    envs = _make_vec(env_id, 2, **kwargs)
+    other = gym.make(env_id, **kwargs)
+    envs.reset(seed=[0, 1])
+    want, _ = other.reset(seed=1)
+    rng = np.random.default_rng(0)
+    up = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0], np.float32)  # sub-env 0 rises out
+    ended_at = None
+    for step in range(80):
+        actions = np.stack([up, rng.uniform(-1, 1, 6).astype(np.float32)])
+        obs, rewards, terminated, truncated, info = envs.step(actions)
+        want, reward, *_ = other.step(actions[1])
+        assert data_equivalence(_row(obs, 1), want, exact=True) and rewards[1] == reward
+        assert not (terminated[1] or truncated[1])
+        if terminated[0]:
+            assert info["termination"]["left_workspace"][0]
+            ended_at = step
+            break
+    assert ended_at is not None, "sub-env 0 never left the workspace"
+    # The next step resets sub-env 0 only; sub-env 1 steps on as before.
+    obs, rewards, terminated, *_ = envs.step(actions)
+    want, reward, *_ = other.step(actions[1])
+    assert data_equivalence(_row(obs, 1), want, exact=True) and rewards[1] == reward
+    assert rewards[0] == 0.0 and not terminated[0]
+    envs.close()
+    other.close()
+
+
+def test_same_step_autoreset_reports_the_final_observation():
+    env_id = ENV_IDS[0]
+    envs = _make_vec(env_id, 2, max_steps=2, autoreset_mode="SameStep")
+    single = gym.make(env_id, max_steps=2)
+    assert envs.metadata["autoreset_mode"] is AutoresetMode.SAME_STEP
+    envs.reset(seed=[4, 9])
+    single.reset(seed=4)
+    actions = np.zeros((2, 6), np.float32)
+    envs.step(actions)
+    single.step(actions[0])
+    obs, _, _, truncated, info = envs.step(actions)
+    final, *_ = single.step(actions[0])
+    assert truncated.all() and info["_final_obs"].all()
+    assert data_equivalence(info["final_obs"][0], final, exact=True)
+    assert data_equivalence(_row(obs, 0), single.reset()[0], exact=True)
+    envs.close()
+    single.close()
+
+
+def test_disabled_autoreset_and_masked_reset():
+    envs = _make_vec(ENV_IDS[0], 2, max_steps=1, autoreset_mode=AutoresetMode.DISABLED)
+    first, _ = envs.reset(seed=0)
+    actions = np.zeros((2, 6), np.float32)
+    envs.step(actions)
+    with pytest.raises(RuntimeError, match="sub-env 0 of 2: the episode has ended"):
+        envs.step(actions)
+    obs, info = envs.reset(seed=[None, 1], options={"reset_mask": np.array([False, True])})
+    assert info["_is_success"].tolist() == [False, True]
+    single = gym.make(ENV_IDS[0])
+    assert data_equivalence(_row(obs, 1), single.reset(seed=1)[0], exact=True)
+    single.close()
+    with pytest.raises(ValueError, match="reset_mask"):
+        envs.reset(options={"reset_mask": np.array([False, False])})
+    envs.close()
+
+
+def test_gymnasiums_vector_wrappers_work_on_it():
+    base = _make_vec(ENV_IDS[0], 2, max_steps=2)
+    envs = FlattenObservation(RecordEpisodeStatistics(base))
+    obs, _ = envs.reset(seed=0)
+    assert obs.shape == (2, gym.spaces.flatdim(base.single_observation_space))
+    actions = np.zeros((2, 6), np.float32)
+    envs.step(actions)
+    *_, truncated, info = envs.step(actions)
+    assert truncated.all() and info["episode"]["l"].tolist() == [2, 2]
+    envs.close()
+
+
+@pytest.mark.parametrize("num_envs", [0, -3, 2.0, "4", True, None, MAX_NUM_ENVS + 1, 10**9])
+def test_bad_num_envs_is_a_value_error_naming_it(num_envs):
+    with pytest.raises(ValueError, match=rf"num_envs must be an integer in \[1, {MAX_NUM_ENVS}\]"):
+        _make_vec(ENV_IDS[0], num_envs)
+
+
+def test_bad_input_and_closing():
+    envs = _make_vec(ENV_IDS[2], 2)
+    with pytest.raises(ValueError, match="num_envs=2, got 3 seeds"):
+        envs.reset(seed=[1, 2, 3])
+    with pytest.raises(ValueError, match="seed must be None, an int or a list"):
+        envs.reset(seed="7")
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match=r"actions must have shape \(2, 3\)"):
+        envs.step(np.zeros((3, 3), np.float32))
+    actions = np.zeros((2, 3), np.float32)
+    actions[1, 2] = np.nan
+    with pytest.raises(ValueError, match="sub-env 1 of 2: action must be finite") as error:
+        envs.step(actions)
+    assert error.value.index == 1
+    with pytest.raises(ValueError, match="autoreset_mode must be one of"):
+        _make_vec(ENV_IDS[0], 1, autoreset_mode="sometimes")
+    with pytest.raises(ValueError, match="unknown HingeProbe keyword"):
+        _make_vec(ENV_IDS[0], 1, max_stepz=3)
+    with pytest.raises(ValueError, match="render_mode='human'.*num_envs=2"):
+        _make_vec(ENV_IDS[0], 2, render_mode="human")
+    envs.close()
+    envs.close()  # twice is safe
+    assert envs.closed
+    with pytest.raises(RuntimeError, match="closed"):
+        envs.step(actions)
+
+
+def test_sub_env_access_and_rendering():
+    envs = _make_vec(ENV_IDS[2], 2, render_mode="rgb_array")
+    envs.reset(seed=0)
+    assert envs.get_attr("max_primitives") == (64, 64)
+    envs.set_attr("max_primitives", [3, 4])
+    assert envs.call("max_primitives") == (3, 4)
+    assert [len(m) for m in envs.call("get_wrapper_attr", "measurements")] == [0, 0]
+    assert envs.np_random_seed == (0, 1)
+    frames = envs.render()
+    assert len(frames) == 2 and frames[0].ndim == 3
+    envs.close()
+
+
+# ---------------------------------------------------------------------- the SB3 adapter
+def _sb3_reference(env_id: str, n_envs: int, **kwargs):
+    """SB3's own in-process VecEnv over ``gym.make``: what the adapter must give."""
+    dummy = pytest.importorskip("stable_baselines3.common.vec_env").DummyVecEnv
+    return dummy([lambda: gym.make(env_id, **kwargs) for _ in range(n_envs)])
+
+
+@pytest.mark.parametrize("env_id", [ENV_IDS[1], ENV_IDS[3]])
+def test_sb3_adapter_matches_dummy_vec_env(env_id):
+    vec_env = pytest.importorskip("agents.vec_env")
+    kwargs = SHORT[_primitive(env_id)]
+    ours = vec_env.make_sb3_vec_env(env_id, 2, **kwargs)
+    reference = _sb3_reference(env_id, 2, **kwargs)
+    assert ours.observation_space == reference.observation_space
+    assert ours.action_space == reference.action_space
+    for env in (ours, reference):
+        env.seed(3)
+    assert data_equivalence(ours.reset(), dict(reference.reset()), exact=True)
+    assert data_equivalence(ours.reset_infos, reference.reset_infos, exact=True)
+    rng = np.random.default_rng(0)
+    dones = 0
+    for _ in range(6):
+        actions = rng.uniform(-1, 1, (2, *ours.action_space.shape)).astype(np.float32)
+        ours.step_async(actions)
+        reference.step_async(actions)
+        got, (obs, *want) = ours.step_wait(), reference.step_wait()
+        assert data_equivalence(got, (dict(obs), *want), exact=True)  # DummyVecEnv: OrderedDict
+        assert data_equivalence(ours.reset_infos, reference.reset_infos, exact=True)
+        dones += int(got[2].sum())
+    assert dones >= 2  # terminal_observation and TimeLimit.truncated were compared
+    assert ours.get_attr("render_mode") == [None, None]
+    space = ("get_wrapper_attr", "dict_observation_space")
+    assert ours.env_method(*space, indices=[1]) == reference.env_method(*space, indices=[1])
+    ours.set_attr("probe_note", "a", indices=0)
+    ours.set_attr("probe_note", "b", indices=[1])
+    assert ours.get_attr("probe_note") == ["a", "b"]
+    assert ours.env_is_wrapped(gym.Wrapper) == [_primitive(env_id)] * 2
+    ours.close()
+    ours.close()
+    reference.close()
+
+
+def test_sb3_adapter_rejects_the_wrong_autoreset_and_works_with_sb3_wrappers():
+    vec_env = pytest.importorskip("agents.vec_env")
+    sb3 = pytest.importorskip("stable_baselines3.common.vec_env")
+    with pytest.raises(ValueError, match="SAME_STEP"):
+        vec_env.HingeProbeSB3VecEnv(_make_vec(ENV_IDS[0], 1))
+    env = sb3.VecNormalize(
+        sb3.VecMonitor(
+            sb3.VecCheckNan(
+                vec_env.make_sb3_vec_env(ENV_IDS[0], 2, max_steps=3), raise_exception=True
+            )
+        )
+    )
+    env.seed(0)
+    env.reset()
+    episodes = []
+    for _ in range(4):
+        obs, rewards, dones, infos = env.step(np.zeros((2, 6), np.float32))
+        episodes += [info["episode"]["l"] for info in infos if "episode" in info]
+    assert episodes == [3, 3]  # VecMonitor saw both sub-envs' ends
+    env.close()
+
+
+def test_ppo_learns_on_the_adapter_for_a_few_hundred_steps():
+    ppo = pytest.importorskip("stable_baselines3").PPO
+    vec_env = pytest.importorskip("agents.vec_env")
+    env = vec_env.make_sb3_vec_env(ENV_IDS[0], 2, max_steps=50)
+    model = ppo("MultiInputPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0)
+    model.learn(total_timesteps=256)
+    assert model.num_timesteps == 256
+    env.close()
