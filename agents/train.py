@@ -19,8 +19,9 @@ nothing behind. A run that fails later leaves no folder if it saved no model, el
 ``failed.txt`` saying why; an interrupted run with checkpoints can continue from the latest
 (``train(..., run_dir=..., resume=True)``, what ``agents.sweep`` does).
 
-The envs run in this process (``DummyVecEnv``) unless every env worker can have a core of its
-own beside the learner (:func:`choose_vec_env`); ``--vec-env`` overrides that choice.
+The envs run in this process as the package's vector env (``gym.make_vec``, ``docs/design.md``
+7.9, through :mod:`agents.vec_env`) unless every env worker can have a core of its own beside
+the learner (:func:`choose_vec_env`); ``--vec-env`` overrides that choice.
 """
 
 from __future__ import annotations
@@ -46,10 +47,10 @@ import yaml
 import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
 
-from .cli import KEY_VALUE_HELP, KeyValue, make_parser, quiet_c_output, require, run_main
+from .cli import KEY_VALUE_HELP, KeyValue, make_parser, require, run_main
 
 ALGOS = ("ppo", "sac")
-VEC_ENVS = ("auto", "dummy", "subproc")
+VEC_ENVS = ("auto", "vector", "dummy", "subproc")
 #: The env trained and evaluated when none is named.
 DEFAULT_ENV_ID = tactile_gym.ENV_IDS[0]
 #: Keys of a training config that are not constructor arguments of the algorithm.
@@ -76,31 +77,10 @@ SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
 
 
 def make_env(env_id: str, **env_kwargs):
-    """``gym.make`` after importing tactile_gym, so that worker processes know the ids.
-
-    The env connects to PyBullet on its first reset, and PyBullet prints "argv[0]=" from C
-    when it connects; :class:`QuietFirstReset` keeps that line out of the output.
-    """
+    """``gym.make`` after importing tactile_gym, so that worker processes know the ids."""
     import tactile_gym  # noqa: F401 - registers the envs in this process
 
-    return QuietFirstReset(gym.make(env_id, **env_kwargs))
-
-
-class QuietFirstReset(gym.Wrapper):
-    """The env, its first ``reset`` run with C's stdout silenced
-    (:func:`agents.cli.quiet_c_output`)."""
-
-    def __init__(self, env: gym.Env) -> None:
-        super().__init__(env)
-        self._connected = False
-
-    def reset(self, **kwargs):
-        if self._connected:
-            return self.env.reset(**kwargs)
-        with quiet_c_output():
-            result = self.env.reset(**kwargs)
-        self._connected = True
-        return result
+    return gym.make(env_id, **env_kwargs)
 
 
 def available_cpus() -> int:
@@ -112,7 +92,8 @@ def available_cpus() -> int:
 
 
 def choose_vec_env(n_envs: int, n_cpus: int) -> str:
-    """``"subproc"`` when each env worker gets a core of its own beside the learner.
+    """``"subproc"`` when each env worker gets a core of its own beside the learner, else
+    ``"vector"`` (the package's vector env in this process).
 
     On 2 cores shared with other jobs, PPO with 2 envs in this process ran 1.16x and 1.44x
     as fast as with 2 subprocesses (0.90x in a third run, 1.05x on quiet cores;
@@ -124,7 +105,7 @@ def choose_vec_env(n_envs: int, n_cpus: int) -> str:
         n_envs: parallel envs.
         n_cpus: cores the run may use.
     """
-    return "subproc" if n_envs > 1 and n_cpus >= n_envs + 1 else "dummy"
+    return "subproc" if n_envs > 1 and n_cpus >= n_envs + 1 else "vector"
 
 
 @contextlib.contextmanager
@@ -356,8 +337,9 @@ def train(
         checkpoint_freq: env steps (summed over envs) between checkpoints; 0 disables them.
         progress_bar: show a progress bar (needs tqdm and rich); without it, a line every
             30 s (:func:`progress_lines`).
-        vec_env: ``"auto"`` (:func:`choose_vec_env`), ``"subproc"`` (one process per env)
-            or ``"dummy"`` (all in this process).
+        vec_env: ``"auto"`` (:func:`choose_vec_env`), ``"vector"`` (the package's vector
+            env: N scenes in this process), ``"subproc"`` (one process per env) or
+            ``"dummy"`` (SB3's loop over single envs in this process).
         n_cpus: cores the run may use; defaults to this process's CPU affinity.
         n_threads: torch threads; defaults to ``DEFAULT_TORCH_THREADS``.
         device: torch device.
@@ -372,7 +354,14 @@ def train(
     require("stable_baselines3", "train")
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
     from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+    from stable_baselines3.common.vec_env import (
+        DummyVecEnv,
+        SubprocVecEnv,
+        VecMonitor,
+        VecNormalize,
+    )
+
+    from .vec_env import make_sb3_vec_env
 
     if env_id not in tactile_gym.ENV_IDS:
         raise ValueError(f"env_id must be one of {tactile_gym.ENV_IDS}, got {env_id!r}")
@@ -388,11 +377,22 @@ def train(
     n_threads = int(n_threads or DEFAULT_TORCH_THREADS)
 
     run_env_kwargs = dict(config.get("env_kwargs") or {})
-    vec_cls = SubprocVecEnv if resolved_vec_env == "subproc" and n_envs > 1 else DummyVecEnv
     factory = functools.partial(make_env, env_id, **run_env_kwargs)
+
+    def make_envs(n: int, first_seed: int):
+        """``n`` envs seeded ``first_seed + i``; the training and the evaluation envs are
+        wrapped alike, as SB3's syncing of normalisation statistics requires."""
+        if resolved_vec_env == "vector":
+            # VecMonitor keeps the episode records that one Monitor per env would.
+            envs = VecMonitor(make_sb3_vec_env(env_id, n, **run_env_kwargs))
+            envs.seed(first_seed)
+            return envs
+        vec_cls = SubprocVecEnv if resolved_vec_env == "subproc" and n > 1 else DummyVecEnv
+        return make_vec_env(factory, n_envs=n, seed=first_seed, vec_env_cls=vec_cls)
+
     # The envs first: a bad env keyword fails here, before a run folder exists.
-    eval_env = make_vec_env(factory, n_envs=1, seed=seed + 10_000)
-    env = make_vec_env(factory, n_envs=n_envs, seed=seed, vec_env_cls=vec_cls)
+    eval_env = make_envs(1, seed + 10_000)
+    env = make_envs(n_envs, seed)
 
     checkpoint = None
     if run_dir is None:
@@ -648,8 +648,9 @@ def main(argv: list[str] | None = None) -> Path:
         "--vec-env",
         choices=VEC_ENVS,
         default="auto",
-        help="subproc: one process per env; dummy: all in this process; auto: subproc only "
-        "when every env gets a core of its own beside the learner",
+        help="vector: the package's vector env, N scenes in this process; subproc: one process "
+        "per env; dummy: SB3's loop over single envs; auto: subproc only when every env gets a "
+        "core of its own beside the learner, else vector",
     )
     parser.add_argument(
         "--n-cpus", type=int, default=None, help="cores the run may use; default: all it may"

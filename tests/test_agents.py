@@ -103,9 +103,10 @@ def test_training_records_resolved_run(flat_ppo_run):
     hyper = record["hyperparameters"]
     assert hyper["env_kwargs"] == {"observation_mode": "flat"}
     assert hyper["policy"] == "MlpPolicy"
-    # 2 cores or fewer: the envs share them with the learner, so they run in-process.
+    # 2 cores or fewer: the envs share them with the learner, so they run in-process, as
+    # the package's vector env.
     if train.available_cpus() <= 2:
-        assert record["resources"]["vec_env"] == "dummy"
+        assert record["resources"]["vec_env"] == "vector"
     assert record["resources"]["torch_threads"] == train.DEFAULT_TORCH_THREADS
 
 
@@ -191,9 +192,9 @@ def test_vecnormalize_paths():
 
 def test_vec_env_choice():
     # Envs that would only share the cores with the learner run in-process.
-    assert train.choose_vec_env(n_envs=2, n_cpus=2) == "dummy"
-    assert train.choose_vec_env(n_envs=2, n_cpus=1) == "dummy"
-    assert train.choose_vec_env(n_envs=1, n_cpus=16) == "dummy"
+    assert train.choose_vec_env(n_envs=2, n_cpus=2) == "vector"
+    assert train.choose_vec_env(n_envs=2, n_cpus=1) == "vector"
+    assert train.choose_vec_env(n_envs=1, n_cpus=16) == "vector"
     assert train.choose_vec_env(n_envs=2, n_cpus=3) == "subproc"
     assert train.choose_vec_env(n_envs=8, n_cpus=16) == "subproc"
     with pytest.raises(ValueError, match="vec_env"):
