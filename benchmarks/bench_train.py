@@ -73,15 +73,27 @@ def _factory(env_id: str, env_kwargs: dict, dummy: bool):
 
 def _vec_env(env_id, config, vec_env: str, dummy: bool):
     from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
-
-    cls = SubprocVecEnv if vec_env == "subproc" else DummyVecEnv
-    env = make_vec_env(
-        _factory(env_id, dict(config.get("env_kwargs") or {}), dummy),
-        n_envs=int(config["n_envs"]),
-        seed=0,
-        vec_env_cls=cls,
+    from stable_baselines3.common.vec_env import (
+        DummyVecEnv,
+        SubprocVecEnv,
+        VecMonitor,
+        VecNormalize,
     )
+
+    from agents.vec_env import make_sb3_vec_env
+
+    env_kwargs = dict(config.get("env_kwargs") or {})
+    if vec_env == "vector" and not dummy:
+        env = VecMonitor(make_sb3_vec_env(env_id, int(config["n_envs"]), **env_kwargs))
+        env.seed(0)
+    else:
+        # The zero-cost env has no vector env of its own: SB3's loop over it stands in.
+        env = make_vec_env(
+            _factory(env_id, env_kwargs, dummy),
+            n_envs=int(config["n_envs"]),
+            seed=0,
+            vec_env_cls=SubprocVecEnv if vec_env == "subproc" else DummyVecEnv,
+        )
     if config.get("normalize"):
         env = VecNormalize(env, gamma=config.get("gamma", 0.99))
     return env
@@ -136,7 +148,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     config = train_mod.resolve_config(args.algo, args.env, n_envs=args.n_envs)
     n_envs, n_cpus = int(config["n_envs"]), train_mod.available_cpus()
     chosen = train_mod.choose_vec_env(n_envs, n_cpus)
-    other = "subproc" if chosen == "dummy" else "dummy"
+    other = "subproc" if chosen == "dummy" else "dummy"  # vector or subproc against dummy
     threads = train_mod.DEFAULT_TORCH_THREADS
     more = 2 * threads
     cases = [  # (label, vec env, torch threads, dummy env)
