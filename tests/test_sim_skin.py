@@ -7,7 +7,7 @@ import multiprocessing
 import numpy as np
 import pytest
 
-from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig, _kernels
+from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig, _kernels, _pose_kernels
 from tactile_gym.spatial import rotation_z, rotvec_to_matrix
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])  # sensor z along world -z
@@ -166,7 +166,7 @@ def test_kernels_compile_once_and_work_in_spawned_workers(scene):
     _press_table(scene, 0.001, steps=4)
     for kernel in (_kernels.select, _kernels.evaluate, _kernels.commit, _kernels.substep):
         assert len(kernel.signatures) == 1, kernel
-    for kernel in (_kernels.advance, _kernels.link_pose):  # compiled when first needed
+    for kernel in (_pose_kernels.advance, _pose_kernels.link_pose):  # compiled when first needed
         assert len(kernel.signatures) <= 1, kernel
     ctx = multiprocessing.get_context("spawn")
     with ctx.Pool(1) as pool:
@@ -202,13 +202,13 @@ def test_substep_pose_arithmetic_is_numpys_to_the_bit():
         hinge = np.linalg.qr(rng.normal(size=(3, 3)))[0]
         pin, centre = rng.normal(size=3), rng.normal(size=3)
         angle = rng.uniform(-3.0, 3.0)
-        pose = _kernels.link_pose(np.concatenate([hinge, [pin, centre]]), angle)
+        pose = _pose_kernels.link_pose(np.concatenate([hinge, [pin, centre]]), angle)
         rotation = hinge @ rotation_z(angle)
         np.testing.assert_array_equal(pose[:3], rotation)
         np.testing.assert_array_equal(pose[3], pin + rotation @ centre)
         tip = np.concatenate([np.linalg.qr(rng.normal(size=(3, 3)))[0], [rng.normal(size=3)]])
         step = np.concatenate([rotvec_to_matrix(rng.normal(0.0, 0.01, 3)), [rng.normal(size=3)]])
         moved = tip.copy()
-        _kernels.advance(moved, step, True, 1)
+        _pose_kernels.advance(moved, step, True, 1)
         np.testing.assert_array_equal(moved[:3], step[:3] @ tip[:3])
         np.testing.assert_array_equal(moved[3], tip[3] + step[3])

@@ -39,8 +39,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
-from numba.extending import intrinsic
+from numba import njit
+
+from tactile_gym.sim._pose_kernels import advance_into, matvec_entry, sum_fma, turned_frame
 
 BOX = 0
 PLANE = 1
@@ -509,85 +510,6 @@ def commit(
                 prev_frames[prim_rows[k], r, c] = prim_data[k, FRAME + 3 * r + c]
 
 
-@intrinsic
-def _fma(typingctx, a, b, c):
-    """a * b + c rounded once (LLVM's ``llvm.fma``)."""
-    sig = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context, builder, signature, args):
-        return builder.fma(*args)
-
-    return sig, codegen
-
-
-# The pose arithmetic of a substep replaced NumPy products; these give their results to the
-# bit, as NumPy's OpenBLAS computes them on x86-64 with FMA (docs/design.md 3.5): a 3x3
-# matrix product and a dot product sum the terms in order with fused multiply-adds, a
-# matrix-vector product starts from the middle term.
-
-
-@njit(cache=True, inline="always")
-def _sum_fma(a0, b0, a1, b1, a2, b2):
-    """An entry of a 3x3 @ 3x3 product, or a 3-vector dot product, as NumPy computes it."""
-    return _fma(a2, b2, _fma(a1, b1, a0 * b0))
-
-
-@njit(cache=True, inline="always")
-def _matvec_entry(a0, b0, a1, b1, a2, b2):
-    """An entry of a 3x3 @ 3-vector product, as NumPy computes it."""
-    return _fma(a2, b2, _fma(a0, b0, a1 * b1))
-
-
-@njit(cache=True, inline="always")
-def _turned_frame(link, angle, out):
-    """Pose of a primitive on a revolute link into ``out`` (4, 3): rotation H Rz(angle), then
-    centre pin + R c. ``link`` (5, 3): H (the hinge frame's axes as columns, world frame),
-    the pin, c (the primitive's centre in the link frame)."""
-    c, s = math.cos(angle), math.sin(angle)
-    for r in range(3):
-        h0, h1, h2 = link[r, 0], link[r, 1], link[r, 2]
-        out[r, 0] = _sum_fma(h0, c, h1, s, h2, 0.0)
-        out[r, 1] = _sum_fma(h0, -s, h1, c, h2, 0.0)
-        out[r, 2] = _sum_fma(h0, 0.0, h1, 0.0, h2, 1.0)
-    for r in range(3):
-        out[3, r] = link[3, r] + _matvec_entry(
-            out[r, 0], link[4, 0], out[r, 1], link[4, 1], out[r, 2], link[4, 2]
-        )
-
-
-@njit(cache=True)
-def link_pose(link, angle):
-    """(4, 3) pose of a primitive on a revolute link at ``angle`` (see ``_turned_frame``)."""
-    out = np.empty((4, 3))
-    _turned_frame(link, angle, out)
-    return out
-
-
-@njit(cache=True, inline="always")
-def _advance(pose, motion, turning, out):
-    """One substep of the fingertip's motion from ``pose`` into ``out`` (both (4, 3):
-    rotation, then position): position + step, and rotation step_R @ R when ``turning``."""
-    for r in range(3):
-        out[3, r] = pose[3, r] + motion[3, r]
-    for r in range(3):
-        for c in range(3):
-            if turning:
-                out[r, c] = _sum_fma(
-                    motion[r, 0], pose[0, c], motion[r, 1], pose[1, c], motion[r, 2], pose[2, c]
-                )
-            else:
-                out[r, c] = pose[r, c]
-
-
-@njit(cache=True)
-def advance(pose, motion, turning, count):
-    """Apply ``count`` substeps of the fingertip's motion to ``pose`` in place (free air)."""
-    tmp = np.empty((4, 3))
-    for _ in range(count):
-        _advance(pose, motion, turning, tmp)
-        pose[:] = tmp
-
-
 @njit(cache=True)
 def substep(
     points,
@@ -638,7 +560,7 @@ def substep(
         pose: (4, 3) committed fingertip pose, in/out.
         motion: (4, 3) per-substep rotation and translation. turning: apply the rotation.
         step_len: bound on any node's displacement by one substep of ``motion``, m.
-        link, link_row, angle: the revolute link (``_turned_frame``) and its angle, rad.
+        link, link_row, angle: the revolute link (``turned_frame``) and its angle, rad.
         f_prev: |f| of the committed contact, N. limit: the guard's |f| limit, N.
         reaction: (3, 3) out: force and torque (about its centre) on the link's primitive,
             world frame, and that centre; valid when the returned ``pushed`` is True.
@@ -649,9 +571,9 @@ def substep(
         whether the link's primitive is touched.
     """
     if link_row >= 0:
-        _turned_frame(link, angle, poses[link_row + 1])
+        turned_frame(link, angle, poses[link_row + 1])
     cand = np.empty((4, 3))
-    _advance(pose, motion, turning, cand)
+    advance_into(pose, motion, turning, cand)
     poses[0] = cand
     out = evaluate(
         points, areas, nodes, distance, moved, poses, prev_frames, shapes, prim_info,
@@ -666,12 +588,12 @@ def substep(
         wrench = out[4]
         f_dir = np.empty(3)
         for r in range(3):
-            f_dir[r] = _matvec_entry(
+            f_dir[r] = matvec_entry(
                 pose[r, 0], wrench[0], pose[r, 1], wrench[1], pose[r, 2], wrench[2]
             )
             f_dir[r] /= f_new
         push = min(
-            _sum_fma(motion[3, 0], f_dir[0], motion[3, 1], f_dir[1], motion[3, 2], f_dir[2]),
+            sum_fma(motion[3, 0], f_dir[0], motion[3, 1], f_dir[1], motion[3, 2], f_dir[2]),
             0.0,
         )
         frac = 0.9 * max(0.0, (limit - f_prev) / (f_new - f_prev))

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pybullet as p
 
-from tactile_gym.sim import _kernels
+from tactile_gym.sim import _pose_kernels
 from tactile_gym.sim.config import ObjectConfig
 from tactile_gym.sim.primitives import RoundedBox
 from tactile_gym.sim.world import World
@@ -127,7 +127,7 @@ class HingedObject:
             link=-1,
         )
         #: (5, 3) the free link for the compiled kernels: ``hinge_rotation`` (rows 0-2), the
-        #: pin, the free box's centre in the link frame (``_kernels.link_pose``).
+        #: pin, the free box's centre in the link frame (``_pose_kernels.link_pose``).
         self.link = np.concatenate([self.hinge_rotation, [self.pin, self.free_center_local]])
         self._angle = 0.0
         self._velocity = 0.0
@@ -149,7 +149,7 @@ class HingedObject:
             :2
         ]
         # The pose the kernels give the free box at this angle, to the last bit.
-        pose = _kernels.link_pose(self.link, self._angle)
+        pose = _pose_kernels.link_pose(self.link, self._angle)
         self.free_box.rotation = pose[:3]
         self.free_box.center = pose[3]
 

@@ -32,7 +32,7 @@ import numpy as np
 import pybullet as p
 
 from tactile_gym.sensing import FingertipGeometry, SensorConfig
-from tactile_gym.sim import _kernels
+from tactile_gym.sim import _pose_kernels
 from tactile_gym.sim.config import ObjectConfig, SkinConfig
 from tactile_gym.sim.objects import HingedObject
 from tactile_gym.sim.primitives import Plane
@@ -325,7 +325,7 @@ class ProbeScene:
                 p.stepSimulation(physicsClientId=cid)
                 continue
             if pending:
-                _kernels.advance(pose, motion, turning, pending)
+                _pose_kernels.advance(pose, motion, turning, pending)
                 pending = 0
             if moved >= sel.reach:
                 # Moved further than the broad phase allowed for (the link sped up): select
@@ -359,7 +359,7 @@ class ProbeScene:
             shell = shell or step_shell
             max_force = max(max_force, force)
         if pending:
-            _kernels.advance(pose, motion, turning, pending)
+            _pose_kernels.advance(pose, motion, turning, pending)
         #: (force, torque about the COM, COM) last applied to the free link, world frame.
         self.last_reaction = (
             (reaction[0].copy(), reaction[1].copy(), reaction[2].copy()) if pushed else None

@@ -552,7 +552,7 @@ class SoftSkin:
             moved: bound on the relative motion of any node and primitive since ``select``
                 after this substep, m.
             link, link_row, angle: the primitive on the revolute link (row of the selection,
-                -1 if not in it), posed at ``angle`` rad (``_kernels.link_pose``).
+                -1 if not in it), posed at ``angle`` rad (``_pose_kernels.link_pose``).
             limit: guarded-move limit on |f|, N.
             dt: time since the last committed evaluation, s.
             reaction: (3, 3) out: force and torque on the link's primitive (world frame,
