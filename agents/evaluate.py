@@ -37,10 +37,12 @@ import numpy as np
 import yaml
 
 import tactile_gym
+from tactile_gym.envs.hinge_probe_primitive_v1 import PRIMITIVE_KEYWORDS
+from tactile_gym.envs.skills import PrimitiveExecutor
 
 from .cli import KEY_VALUE_HELP, KeyValue, make_parser, progress_bar, run_main
 from .plots import plot_errors
-from .scripted import executor_for, scripted_policy
+from .scripted import scripted_policy
 from .train import DEFAULT_ENV_ID, algorithm_class, make_env, torch_threads, vecnormalize_path
 
 #: Position error reported while there is no estimate, m (the task's E_max).
@@ -48,8 +50,6 @@ NO_ESTIMATE_ERROR = 0.1
 #: The "steps to reach" threshold of the table, m.
 REACH_THRESHOLD = 0.005
 BUILTIN_POLICIES = ("random", "scripted")
-#: Keywords of the primitive ids that the 6-D env does not take.
-PRIMITIVE_KEYWORDS = ("max_primitives", "probe_across", "probe_along", "turn_distance")
 
 
 class RandomPolicy:
@@ -127,7 +127,7 @@ class PrimitiveModelPolicy:
         self.space = primitive_env.get_wrapper_attr("dict_observation_space")
         self.flat = primitive_env.unwrapped.config.observation_mode == "flat"
         primitive_env.close()
-        self.executor = executor_for(env.unwrapped)
+        self.executor = PrimitiveExecutor.for_env(env.unwrapped)
 
     def reset(self) -> None:
         self.executor.reset()

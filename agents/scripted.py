@@ -35,7 +35,7 @@ import numpy as np
 from tactile_gym.envs.observation import ContactObs, LastMeasurementObs, ObservationCodec
 from tactile_gym.envs.skills import PrimitiveExecutor, PrimitiveScales, TouchReading
 
-__all__ = ["PrimitiveProber", "ProberConfig", "SkillProber", "executor_for", "scripted_policy"]
+__all__ = ["PrimitiveProber", "ProberConfig", "SkillProber", "scripted_policy"]
 
 
 @dataclass(frozen=True)
@@ -194,13 +194,7 @@ def scripted_policy(env):
     codec = env.get_wrapper_attr("codec")
     if env.action_space.shape == (3,):
         return _Policy(PrimitiveProber(env.get_wrapper_attr("scales")), codec, True)
-    return _Policy(SkillProber(executor_for(env.unwrapped)), codec, False)
-
-
-def executor_for(env) -> PrimitiveExecutor:
-    """A primitive executor for a 6-D ``HingeProbeEnv`` (pass ``env.unwrapped``), with the
-    primitive ids' default scales (``PrimitiveExecutor.for_env``)."""
-    return PrimitiveExecutor.for_env(env)
+    return _Policy(SkillProber(PrimitiveExecutor.for_env(env.unwrapped)), codec, False)
 
 
 def main(argv: list[str] | None = None) -> None:
