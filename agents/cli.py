@@ -8,11 +8,10 @@
   stderr and exit status 2, like pip, ruff and argparse; ``--debug`` shows the traceback
   instead. A closed pipe (``--dry-run | head``) ends quietly, Ctrl-C with status 130.
 * :class:`KeyValue`: the ``key:value`` arguments of ``--hyperparams`` and ``--env-kwargs``.
-* :func:`quiet_c_output`: PyBullet prints "pybullet build time" (stderr) when imported and
-  "argv[0]=" (stdout) on every connection, from C, past ``sys.stdout``. Importing this module
-  imports pybullet inside that block (every command imports this module before anything that
-  imports pybullet), and ``agents.train.make_env`` makes its envs inside it, so the commands'
-  output holds only what they mean to say.
+* :func:`quiet_c_output`: PyBullet prints "pybullet build time" (stderr) from C, past
+  ``sys.stderr``, when it is imported. Importing this module imports pybullet inside that
+  block, and the package imports this module first (``agents/__init__.py``), so the
+  commands' output holds only what they mean to say.
 
 A command adopts all of it in a few lines::
 
