@@ -186,7 +186,7 @@ def test_reset_rebuilds_object_and_renders(scene):
     assert scene.object_config == door
     assert scene.joint_angle == pytest.approx(0.3)
     np.testing.assert_allclose(scene.true_axis[1], [0.0, 0.0, 1.0])
-    img = scene.render(64, 48)
+    img, _ = scene.render(64, 48)
     assert img.shape == (48, 64, 3) and img.dtype == np.uint8
     assert img.std() > 0
     scene.reset(0.0, [0.05, 0.05, 0.2], DOWN, object_config=ObjectConfig.scissors())

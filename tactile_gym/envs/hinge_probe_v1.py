@@ -36,6 +36,7 @@ from tactile_gym.envs.observation import (
     ProgressObs,
     WrenchObs,
 )
+from tactile_gym.envs.render import Overlay, RenderOptions, draw_overlay
 from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, sample_scenario
 from tactile_gym.envs.step_guard import StepGuard
 from tactile_gym.envs.task import (
@@ -319,6 +320,10 @@ class HingeProbeEnv(gym.Env):
 
         gym.make("tactile_gym/HingeProbe-v1", **load_preset("env", "noise_x2"))
 
+    ``render_mode="rgb_array"`` frames are ``render_width`` x ``render_height`` pixels (640 x
+    480) and show the observed force, the measurements and the estimated axis;
+    ``render_truth=True`` adds the true axis, for videos only (``tactile_gym.envs.render``).
+
     ## Version History
 
     * v1: the skin presses each node along the face it entered (the paper's edge signal from a
@@ -331,7 +336,14 @@ class HingeProbeEnv(gym.Env):
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 20}
 
-    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        render_width: int = RenderOptions.render_width,
+        render_height: int = RenderOptions.render_height,
+        render_truth: bool = RenderOptions.render_truth,
+        **kwargs: Any,
+    ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
                 f"render_mode must be one of {self.metadata['render_modes']} or None,"
@@ -344,6 +356,7 @@ class HingeProbeEnv(gym.Env):
             )
         self.config = cfg = HingeProbeConfig.from_kwargs(kwargs)
         self.render_mode = render_mode
+        self.render_options = RenderOptions(render_width, render_height, render_truth)
         modes = [m for m in self.metadata["render_modes"] if m != "human" or _display_available()]
         self.metadata = {
             **self.metadata,
@@ -445,9 +458,27 @@ class HingeProbeEnv(gym.Env):
         return self._observation(), reward, terminated, truncated, info
 
     def render(self):
+        """The frame (``render_mode="rgb_array"``): the probed region with the force, the
+        measurements, the estimated axis and, with ``render_truth=True``, the true axis
+        (``tactile_gym.envs.render``)."""
         if self._scene is None or self.render_mode != "rgb_array":
             return None
-        return self._scene.render()
+        scene, pipeline, options = self._scene, self.pipeline, self.render_options
+        image, camera = scene.render(options.render_width, options.render_height)
+        touch = pipeline.touch
+        tip = scene.sensor_to_world_point(self.geometry.sphere_center)
+        origin = touch.point if touch.valid else tip
+        estimate = pipeline.estimate
+        overlay = Overlay(
+            step=self._steps,
+            force=scene.sensor_to_world_vector(self._wrench[:3]),
+            force_origin=origin,
+            points=np.array([m.point for m in pipeline.measurements]).reshape(-1, 3),
+            edges=np.array([m.edge for m in pipeline.measurements]).reshape(-1, 3),
+            axis=(estimate.point, estimate.direction),
+            true_axis=self._true_axis_for_render() if options.render_truth else None,
+        )
+        return draw_overlay(image, camera, overlay)
 
     def close(self):
         self._guard.stop()
@@ -522,6 +553,11 @@ class HingeProbeEnv(gym.Env):
             hinge_distance=float(np.linalg.norm(self._scene.fingertip_position - pin)),
             action=action,
         )
+
+    def _true_axis_for_render(self) -> tuple[np.ndarray, np.ndarray]:
+        """The true axis, drawn only with ``render_truth=True`` (videos, never an input)."""
+        point, direction = self._scene.true_axis
+        return point.copy(), direction.copy()
 
     def _true_info(self, position_error: float, angle_error: float) -> dict[str, Any]:
         point, direction = self._scene.true_axis

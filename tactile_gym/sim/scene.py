@@ -33,6 +33,7 @@ import pybullet as p
 
 from tactile_gym.sensing import FingertipGeometry, SensorConfig
 from tactile_gym.sim import _pose_kernels
+from tactile_gym.sim.camera import Camera, frame_box
 from tactile_gym.sim.config import ObjectConfig, SkinConfig
 from tactile_gym.sim.objects import HingedObject
 from tactile_gym.sim.primitives import Plane
@@ -510,8 +511,13 @@ class ProbeScene:
 
     # --- rendering and teardown ----------------------------------------------------------
 
-    def render(self, width: int = 320, height: int = 240) -> np.ndarray:
-        """RGB image (height, width, 3), uint8, from a camera looking at the object."""
+    def render(self, width: int, height: int) -> tuple[np.ndarray, Camera]:
+        """RGB image (height, width, 3), uint8, of the probed region, and its camera.
+
+        The camera frames the object's links and the fingertip's hemisphere
+        (``camera.frame_box``), so that the object fills most of the image; it reads the
+        simulator's state for that, as a picture for people may (``docs/design.md`` 7.10).
+        """
         self._check_open()
         cid = self._world.client_id
         p.resetBasePositionAndOrientation(
@@ -520,23 +526,23 @@ class ProbeScene:
             self.fingertip_orientation.tolist(),
             physicsClientId=cid,
         )
-        target = self._object.pin + 0.5 * (self._object.free_box.center - self._object.pin)
-        view = p.computeViewMatrixFromYawPitchRoll(
-            cameraTargetPosition=target.tolist(),
-            distance=0.3,
-            yaw=30.0,
-            pitch=-40.0,
-            roll=0.0,
-            upAxisIndex=2,
+        body = self._object.body_id
+        boxes = [np.array(p.getAABB(body, link, physicsClientId=cid)) for link in (-1, 0)]
+        tip = self.sensor_to_world_point(self._geometry.sphere_center)
+        radius = self._geometry.outer_radius
+        lo = np.min([b[0] for b in boxes] + [tip - radius], axis=0)
+        hi = np.max([b[1] for b in boxes] + [tip + radius], axis=0)
+        camera = frame_box(lo, hi, width, height)
+        _, _, rgba, _, _ = p.getCameraImage(
+            width,
+            height,
+            camera.view_list,
+            camera.projection_list,
+            renderer=p.ER_TINY_RENDERER,
             physicsClientId=cid,
         )
-        proj = p.computeProjectionMatrixFOV(
-            fov=50.0, aspect=width / height, nearVal=0.01, farVal=2.0, physicsClientId=cid
-        )
-        _, _, rgba, _, _ = p.getCameraImage(
-            width, height, view, proj, renderer=p.ER_TINY_RENDERER, physicsClientId=cid
-        )
-        return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+        image = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+        return image, camera
 
     def _check_open(self) -> None:
         if self._closed:
