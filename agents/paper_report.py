@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_gym.envs.plotting import draw_estimate, draw_measurements
+from tactile_gym.envs.plotting import add_legend, draw_estimate, draw_measurements
 
 __all__ = ["PAPER_TABLE", "markdown_table", "plot"]
 
@@ -65,7 +65,9 @@ def markdown_table(results: dict, trials: int, seeds: int, schemes: dict) -> str
 
 
 def plot(results: dict, truth: np.ndarray, out: Path) -> list[Path]:
-    """Fig. 12/13-style top views, one PNG per contact case of the paper scheme.
+    """Fig. 12/13-style top views, one PNG per contact case of the paper scheme: every trial's
+    measured contact points and edge directions (green), its estimate (red) and the true joint
+    position (blue), overlaid, with their key below the axes.
 
     Args:
         results: as ``reproduce`` returns, with the nominal paper cells.
@@ -80,7 +82,9 @@ def plot(results: dict, truth: np.ndarray, out: Path) -> list[Path]:
     paths = []
     for case, title in (("slides", "contact points move"), ("fixed", "contact points fixed")):
         runs = results[("paper", case)]["trials"]
-        fig, axes = plt.subplots(1, 2, figsize=(9, 4.5), sharex=True, sharey=True)
+        fig, axes = plt.subplots(
+            1, 2, figsize=(9, 5), sharex=True, sharey=True, layout="constrained"
+        )
         for ax, method in zip(axes, ("proposed", "simple")):
             for t in runs:
                 draw_measurements(ax, t.points, t.edges)
@@ -89,8 +93,11 @@ def plot(results: dict, truth: np.ndarray, out: Path) -> list[Path]:
             ax.set_xlabel("x [mm]")
             ax.set_aspect("equal")
         axes[0].set_ylabel("y [mm]")
-        fig.suptitle(f"Estimated joint position, {title} (blue: truth, red: estimates)")
-        fig.tight_layout()
+        fig.suptitle(
+            f"Estimated joint position, {title}: {len(runs)} trials overlaid"
+            " (one red estimate per trial)"
+        )
+        add_legend(fig, axes)
         path = out / f"fig_{case}.png"
         fig.savefig(path, dpi=120)
         plt.close(fig)

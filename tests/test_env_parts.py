@@ -225,7 +225,7 @@ def test_env_starts_from_its_prior():
 def test_plot_top_view(tmp_path):
     matplotlib = pytest.importorskip("matplotlib")
     matplotlib.use("Agg")
-    from tactile_gym.envs.plotting import plot_top_view
+    from tactile_gym.envs.plotting import LABELS, plot_top_view
 
     env = gym.make("tactile_gym/HingeProbe-v1", max_steps=120)
     policy = scripted_policy(env)
@@ -239,4 +239,8 @@ def test_plot_top_view(tmp_path):
     assert (tmp_path / "top.png").stat().st_size > 0
     assert len(env.unwrapped.measurements) >= 3
     assert len(ax.lines) >= 3 + len(env.unwrapped.measurements)
+    # Every kind of mark is in the key, once.
+    (key,) = ax.figure.legends
+    labels = [text.get_text() for text in key.get_texts()]
+    assert sorted(labels) == sorted([*LABELS.values(), "free link edge (now)"])
     env.close()
