@@ -539,6 +539,8 @@ class ProbeScene:
             camera.view_list,
             camera.projection_list,
             renderer=p.ER_TINY_RENDERER,
+            # The segmentation mask is not used, and skipping it saves a third of the time.
+            flags=p.ER_NO_SEGMENTATION_MASK,
             physicsClientId=cid,
         )
         image = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
