@@ -15,6 +15,7 @@ from tactile_gym.envs.render import COLOURS, FORCE_SCALE, Overlay, draw_overlay
 from tactile_gym.sim.camera import frame_box
 
 PLANAR, PRIMITIVE = ENV_IDS[0], ENV_IDS[2]
+SMALL = {"render_width": 160, "render_height": 120}  # cheap frames where the size is not tested
 
 
 def _run(env, steps: int, render: bool = False):
@@ -118,7 +119,7 @@ def test_overlays_are_drawn_where_the_projection_says():
 def test_rendering_does_not_change_a_rollout(env_id):
     steps = 40 if env_id == PLANAR else 3
     plain, _ = _run(gym.make(env_id, max_steps=200), steps)
-    env = gym.make(env_id, max_steps=200, render_mode="rgb_array")
+    env = gym.make(env_id, max_steps=200, render_mode="rgb_array", **SMALL)
     rendered, frames = _run(env, steps, render=True)
     assert len(plain) == len(rendered) and frames and frames[-1].std() > 0
     for (obs_a, reward_a), (obs_b, reward_b) in zip(plain[1:], rendered[1:]):
@@ -130,7 +131,7 @@ def test_rendering_does_not_change_a_rollout(env_id):
 @pytest.mark.parametrize("render_truth", [False, True])
 def test_render_reads_truth_only_when_asked(audit, render_truth):  # noqa: F811 - fixture
     violations, reads = audit
-    env = gym.make(PLANAR, render_mode="rgb_array", render_truth=render_truth, max_steps=200)
+    env = gym.make(PLANAR, render_mode="rgb_array", render_truth=render_truth, **SMALL)
     _run(env, 40)
     assert env.unwrapped.measurements  # the frame has measurements to draw
     reads.clear()
