@@ -67,7 +67,7 @@ def test_edge_search_finds_the_edge_by_touch(scene, offset):
 
 def test_press_stops_on_the_noisy_reading():
     # A force bias of 1.5 N along the finger axis makes the reading 1.5 N higher than the
-    # true force: the press must stop on the reading, at a true 3.5 N.
+    # true force: untared, the press must stop on the reading, at a true 3.5 N.
     sensor = SensorConfig(force_bias=(0.0, 0.0, -1.5))
     config = ObjectConfig.scissors(holding_torque=rp.HAND_HOLD_TORQUE)
     with ProbeScene(config, SkinConfig(), sensor) as biased:
@@ -81,7 +81,7 @@ def test_press_stops_on_the_noisy_reading():
 
         biased.control_step = recording_step
         xy = np.array([0.06, 0.105])  # the middle of the grip's top face
-        pressed = rp.press(biased, xy, NOMINAL, np.random.default_rng(0))
+        pressed = rp.press(biased, xy, NOMINAL, np.random.default_rng(0), tare=False)
         assert pressed.touched
         assert abs(np.linalg.norm(pressed.wrench[:3]) - 5.0) <= rp.PRESS.tolerance
         assert 3.1 < np.linalg.norm(biased.true_wrench[:3]) < 3.9

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
-from tactile_gym.sensing import FingertipGeometry, SensorConfig
+from tactile_gym.sensing import FingertipGeometry, SensorConfig, SensorErrors
 from tactile_gym.sim.config import ObjectConfig, SkinConfig
 from tactile_gym.sim.objects import FREE_BODY, HingedObject
 from tactile_gym.sim.primitives import Plane
@@ -86,7 +86,8 @@ class ProbeScene:
     Args:
         object_config: the hinged object.
         skin_config: skin stiffness, friction, node spacing.
-        sensor_config: F/T noise and bias.
+        sensor_config: the F/T sensor (default ``SensorConfig.ideal()``: white noise only;
+            the env and the Table I protocol choose theirs).
         geometry: fingertip shape.
         time_step: physics step, s.
         substeps: physics steps per ``control_step``.
@@ -100,7 +101,7 @@ class ProbeScene:
         self,
         object_config: ObjectConfig,
         skin_config: SkinConfig = SkinConfig(),  # noqa: B008 - frozen dataclasses
-        sensor_config: SensorConfig = SensorConfig(),  # noqa: B008
+        sensor_config: SensorConfig = SensorConfig.ideal(),  # noqa: B008
         geometry: FingertipGeometry = FingertipGeometry(),  # noqa: B008
         *,
         time_step: float = TIME_STEP,
@@ -127,8 +128,7 @@ class ProbeScene:
         self._object = HingedObject(self._world, object_config, rest)
         self._table = Plane(0.0)
         self._skin = SoftSkin(geometry, skin_config)
-        self._force_bias = np.asarray(sensor_config.force_bias, dtype=float)
-        self._moment_bias = np.asarray(sensor_config.moment_bias, dtype=float)
+        self._sensor = SensorErrors(sensor_config, time_step * substeps)
         self._pos = np.array([0.0, 0.0, 0.2])
         self._rot = np.eye(3)
         self._fingertip_visual = self._make_fingertip_visual()
@@ -172,6 +172,7 @@ class ProbeScene:
         fingertip_position,
         fingertip_orientation,
         object_config: ObjectConfig | None = None,
+        rng: np.random.Generator | None = None,
     ) -> None:
         """Set the joint angle and teleport the fingertip; clears the skin state.
 
@@ -180,6 +181,8 @@ class ProbeScene:
             fingertip_position: (3,) sensor origin, world frame, m.
             fingertip_orientation: (4,) quaternion x y z w, sensor to world.
             object_config: rebuild the object from this config if it differs.
+            rng: a new episode of the sensor: draw its offset with it (None: keep the state,
+                as when the hand moves the object mid-trial).
         """
         self._check_open()
         pos = _point(fingertip_position, "fingertip_position")
@@ -195,6 +198,8 @@ class ProbeScene:
         self._pos = pos
         self._rot = quaternion_to_matrix(quat)
         self._skin.reset()
+        if rng is not None:
+            self._sensor.reset(rng)
         prims = self._primitives()
         sel = self._skin.select(prims, self._rot, self._pos, 0.0)
         contact = self._skin.evaluate(sel, prims, self._rot, self._pos, self.time_step)
@@ -329,21 +334,16 @@ class ProbeScene:
     # --- sensing -------------------------------------------------------------------------
 
     def read_wrench(self, rng: np.random.Generator) -> np.ndarray:
-        """Noisy F/T reading [fx, fy, fz, mx, my, mz], sensor frame, N and N m.
+        """F/T reading [fx, fy, fz, mx, my, mz], sensor frame, N and N m: the contact wrench
+        plus the fingertip's weight, bias, offset, drift and noise (``SensorErrors``; one
+        reading per control step).
 
         Args:
             rng: the only source of randomness (the env's ``np_random``).
         """
         if not isinstance(rng, np.random.Generator):
             raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        cfg = self._sensor_config
-        noise = rng.standard_normal(6)
-        noise[:3] *= cfg.force_noise_std
-        noise[3:] *= cfg.moment_noise_std
-        out = self.true_wrench + noise
-        out[:3] += self._force_bias
-        out[3:] += self._moment_bias
-        return out
+        return self._sensor.read(self.true_wrench, self._rot, rng)
 
     @property
     def true_wrench(self) -> np.ndarray:
