@@ -25,7 +25,7 @@ trial and never told. Everything the finger does follows from F/T readings:
   nominal top without touching, there is no grip under it.
 * **Tare** (:class:`~tactile_gym.sensing.Tare`): before each press, right after the lift to
   the travel height (``TRAVEL_CLEARANCE`` above the grip's nominal top) and before moving
-  over, the finger holds still and tares the sensor on ``TARE_READINGS`` readings; the
+  over, the finger holds still and tares the sensor on ``TARE_SAMPLES`` samples; the
   press's readings are compensated with that tare (the finger points down throughout, so
   the fingertip's weight does not change). ``--no-tare`` skips it: the raw readings, with
   the sensor's offset, drift and weight, go to the press and the sensing.
@@ -84,6 +84,7 @@ import numpy as np
 from tactile_gym.estimation import fit_axis_planar, fit_axis_simple
 from tactile_gym.presets import load_preset, preset_names
 from tactile_gym.sensing import (
+    TARE_SAMPLES,
     PressConfig,
     PressController,
     Tare,
@@ -108,7 +109,6 @@ SEARCH_READINGS = 4  # readings averaged for a search press (0.2 s at 20 Hz)
 #: grip's top means no grip under the finger.
 PRESS = PressConfig(max_step=0.0003, dwell=SEARCH_READINGS, reach=TRAVEL_CLEARANCE + MISS_DEPTH)
 MEASURE_READINGS = 20  # readings averaged for the measurement press (1 s at 20 Hz)
-TARE_READINGS = 10  # readings averaged for a tare in free air (0.5 s at 20 Hz)
 CENTRE_PAST_CONTACT = 0.0026  # m, sphere centre beyond the contact: ~1 mm past the edge
 SEARCH_GAIN = 1.5  # the contact moves ~0.4 mm per mm of finger near the edge: 1 / (1 - 0.4)
 CONVERGED_STEP = 0.0003  # m
@@ -312,14 +312,11 @@ def _reading(scene: ProbeScene, tare: Tare | None, rng: np.random.Generator) -> 
 
 
 def tare_here(scene: ProbeScene, rng: np.random.Generator) -> Tare:
-    """Hold the finger still in free air and tare on ``TARE_READINGS`` readings."""
-    position = scene.fingertip_position
-    readings = []
-    for _ in range(TARE_READINGS):
-        scene.control_step(position, DOWN)
-        readings.append(scene.read_wrench(rng))
+    """Hold the finger still in free air for a control step and tare on the mean of
+    ``TARE_SAMPLES`` sensor samples, as the env's tare does."""
+    scene.control_step(scene.fingertip_position, DOWN)
     tare = Tare.of(scene.sensor_config)
-    tare.take(np.array(readings), DOWN_ROTATION)
+    tare.take(scene.read_wrench(rng, TARE_SAMPLES), DOWN_ROTATION)
     return tare
 
 

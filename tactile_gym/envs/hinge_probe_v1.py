@@ -51,6 +51,7 @@ from tactile_gym.envs.task import (
 from tactile_gym.estimation import LOSSES, AxisEstimate, axis_error
 from tactile_gym.sensing import (
     SENSOR_MODELS,
+    TARE_SAMPLES,
     TOUCH_FORCE,
     FingertipGeometry,
     SensorConfig,
@@ -243,17 +244,16 @@ class HingeProbeEnv(gym.Env):
     | 6     | tare the F/T sensor if > 0.5    | -                          | -     |
 
     **Taring** (v2, ``docs/design.md`` 5.3). The env tares at reset (every episode starts in
-    free air) and when ``a[6] > 0.5``: after the move, the step's reading becomes the new
-    zero, taken at the commanded pose. A tare requested while the reading says touching
-    (|f| >= ``TOUCH_FORCE`` on the current tare) is refused (``info["tare_refused"]``);
-    otherwise it is taken (``info["tared"]``). A tare during a contact too light to read
-    (|f| below the threshold) is taken, as a real robot would: its force then stays in
-    every reading as an offset, and the policy carries that error until it tares again in
-    free air. ``info["tare_age"]`` is the time since the last tare, s.
-
-    The rotation turns the fingertip about the centre of its hemisphere. The move is spread
-    over the control step; a guard stops the fingertip advancing while the force exceeds
-    ``force_limit``. (``HingeProbePrimitive-v2`` offers probing primitives instead.)
+    free air) and when ``a[6] > 0.5``: after the move, the step's reading, the mean of
+    ``TARE_SAMPLES`` sensor samples, becomes the new zero, taken at the commanded pose. A tare
+    requested while the reading says touching (|f| >= ``TOUCH_FORCE`` on the current tare) is
+    refused (``info["tare_refused"]``); otherwise it is taken (``info["tared"]``). A tare during
+    a contact too light to read (|f| below the threshold) is taken, as a real robot would: its
+    force then stays in every reading as an offset, and the policy carries that error until it
+    tares again in free air. ``info["tare_age"]`` is the time since the last tare, s. The
+    rotation turns the fingertip about the centre of its hemisphere. The move is spread over the
+    control step; a guard stops the fingertip advancing while the force exceeds ``force_limit``.
+    (``HingeProbePrimitive-v2`` offers probing primitives instead.)
 
     ## Observation Space
 
@@ -459,10 +459,10 @@ class HingeProbeEnv(gym.Env):
         self._steps = 0
         self._tare = Tare.of(self._sensor_config)
         self._tare_step = 0
-        reading = scene.read_wrench(self.np_random)
+        # Every episode starts in free air (2-5 mm above the face, "Starting State"): the
+        # operator's tare there needs no knowledge of contact.
+        reading = scene.read_wrench(self.np_random, TARE_SAMPLES if cfg.tare_action else 1)
         if cfg.tare_action:
-            # Every episode starts in free air (2-5 mm above the face, "Starting State"): the
-            # operator's tare, which needs no knowledge of contact.
             self._tare.take(reading, scene.fingertip_rotation)
         self._wrench = self._tare.compensate(reading, scene.fingertip_rotation)
         self.pipeline.reset(self._wrench, scene.fingertip_rotation, scene.fingertip_position)
@@ -519,7 +519,8 @@ class HingeProbeEnv(gym.Env):
         Returns:
             The tare's ``info`` entries (none without ``tare_action``).
         """
-        reading = self._scene.read_wrench(self.np_random)
+        # A tare's reading averages TARE_SAMPLES sensor samples over the step.
+        reading = self._scene.read_wrench(self.np_random, TARE_SAMPLES if tare else 1)
         self._wrench = self._tare.compensate(reading, rotation)
         if not self.config.tare_action:
             return {}

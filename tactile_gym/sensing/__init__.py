@@ -19,6 +19,7 @@ from tactile_gym.sensing.probing import (
 from tactile_gym.sensing.sensor import (
     RELEASE_FORCE,
     SENSOR_MODELS,
+    TARE_SAMPLES,
     TOUCH_FORCE,
     SensorConfig,
     SensorErrors,
@@ -33,6 +34,7 @@ __all__ = [
     "EDGE_STD_UNOBSERVABLE",
     "RELEASE_FORCE",
     "SENSOR_MODELS",
+    "TARE_SAMPLES",
     "TOUCH_FORCE",
     "ContactEstimate",
     "FingertipGeometry",

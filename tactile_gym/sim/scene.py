@@ -333,17 +333,18 @@ class ProbeScene:
 
     # --- sensing -------------------------------------------------------------------------
 
-    def read_wrench(self, rng: np.random.Generator) -> np.ndarray:
+    def read_wrench(self, rng: np.random.Generator, samples: int = 1) -> np.ndarray:
         """F/T reading [fx, fy, fz, mx, my, mz], sensor frame, N and N m: the contact wrench
         plus the fingertip's weight, bias, offset, drift and noise (``SensorErrors``; one
         reading per control step).
 
         Args:
             rng: the only source of randomness (the env's ``np_random``).
+            samples: sensor samples averaged within the control period (a tare's).
         """
         if not isinstance(rng, np.random.Generator):
             raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        return self._sensor.read(self.true_wrench, self._rot, rng)
+        return self._sensor.read(self.true_wrench, self._rot, rng, samples)
 
     @property
     def true_wrench(self) -> np.ndarray:
