@@ -243,7 +243,7 @@ class HingeProbeEnv(gym.Env):
     | 3-5   | rotation vector about the tip   | ``max_rotation`` (3 deg)   | world |
     | 6     | tare the F/T sensor if > 0.5    | -                          | -     |
 
-    **Taring** (v2, ``docs/design.md`` 5.3). The env tares at reset (every episode starts in
+    **Taring** (v2, ``docs/design.md`` 5.1). The env tares at reset (every episode starts in
     free air) and when ``a[6] > 0.5``: after the move, the step's reading, the mean of
     ``TARE_SAMPLES`` sensor samples, becomes the new zero, taken at the commanded pose. A tare
     requested while the reading says touching (|f| >= ``TOUCH_FORCE`` on the current tare) is
@@ -364,7 +364,7 @@ class HingeProbeEnv(gym.Env):
     * v2: a realistic F/T sensor by default (an offset drawn at reset, a slow drift, the
       fingertip's weight; ``sensor_model="realistic"``), taring at reset and on a seventh
       action component, and the observed wrench tared and gravity-compensated
-      (``docs/design.md`` 5.3). The v1 ids stay registered unchanged.
+      (``docs/design.md`` 5.1). The v1 ids stay registered unchanged.
     * v1: the skin presses each node along the face it entered (the paper's edge signal from a
       pure press); a measurement gate judged from observable quantities only; the fingertip
       starts leaning in a random direction; the reward starts from the prior's error; the

@@ -22,7 +22,7 @@ The physics each skill relies on (``docs/design.md`` 4.1, 4.2, 7.6):
 * :class:`Lift` ends a touch, so that the next press starts with an unloaded skin.
 * :class:`TareSensor` zeroes the F/T sensor in free air before each press, on the ids with a
   tare action (v2): only right after a :class:`Lift` that moved the finger a clearance away
-  from the last touch, never while the reading says touching (``docs/design.md`` 5.3).
+  from the last touch, never while the reading says touching (``docs/design.md`` 5.1).
 
 Skills return 7-D actions (the 6-D motion and the tare request, ``ACTION_SIZE``); the
 executor hands the env as many components as its action space has.

@@ -10,7 +10,7 @@ A reading is the contact wrench plus the weight of the fingertip that hangs belo
 (:func:`gravity_wrench`), a constant bias, an offset drawn per episode, a slow drift (a random
 walk in time) and white noise. :class:`Tare` zeroes it as a robot does: an unloaded reading in
 free air at a known pose, then the change of the fingertip's weight with the commanded pose
-(``docs/design.md`` 5.3, "The F/T sensor and taring"; the figures and their sources are
+(``docs/design.md`` 5.1, "The F/T sensor and taring"; the figures and their sources are
 there).
 
 Conventions (``docs/design.md``, "Frames and units"): SI units (newtons, newton-metres,
@@ -54,7 +54,7 @@ RELEASE_FORCE = 0.5 * TOUCH_FORCE
 
 #: Sensor samples a tare averages: the sensor samples at 1 kHz, so 50 fill one 20 Hz control
 #: period; their mean's noise (0.003 N, 7e-5 N m per axis) stays below that of a measurement
-#: press's 20 readings, so a tare adds less error than it removes (``docs/design.md`` 5.3).
+#: press's 20 readings, so a tare adds less error than it removes (``docs/design.md`` 5.1).
 TARE_SAMPLES = 50
 #: Standard gravity, m/s^2 (world -z).
 GRAVITY = 9.80665
@@ -103,7 +103,7 @@ SENSOR_MODELS = ("realistic", "ideal")
 class SensorConfig:
     """A six-axis force/torque sensor with the fingertip mounted on it.
 
-    The defaults are a NANO-class sensor (``docs/design.md`` 5.3 gives the figures and their
+    The defaults are a NANO-class sensor (``docs/design.md`` 5.1 gives the figures and their
     sources) carrying the paper's fingertip. :meth:`ideal` is the sensor of the v1 ids:
     white noise only.
 
@@ -253,7 +253,7 @@ class Tare:
     one (from the configured mass and centre of mass). Before the first tare only the weight
     is removed. Nothing here knows whether the skin touches: a tare taken while touching
     subtracts the contact too, and every later reading carries that error until the next tare
-    (``docs/design.md`` 5.3).
+    (``docs/design.md`` 5.1).
 
     Args:
         mass: the fingertip's mass below the sensor, kg.
