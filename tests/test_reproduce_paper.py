@@ -68,7 +68,7 @@ def test_edge_search_finds_the_edge_by_touch(scene, offset):
 def test_press_stops_on_the_noisy_reading():
     # A force bias of 1.5 N along the finger axis makes the reading 1.5 N higher than the
     # true force: untared, the press must stop on the reading, at a true 3.5 N.
-    sensor = SensorConfig(force_bias=(0.0, 0.0, -1.5))
+    sensor = SensorConfig.ideal(force_bias=(0.0, 0.0, -1.5))
     config = ObjectConfig.scissors(holding_torque=rp.HAND_HOLD_TORQUE)
     with ProbeScene(config, SkinConfig(), sensor) as biased:
         biased.reset(0.0, [0.06, 0.105, 0.05], rp.DOWN)
