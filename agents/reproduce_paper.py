@@ -65,8 +65,8 @@ and 2e-3 N m per axis, which shows what an uncompensated zero costs with ``--no-
 
 Measurement schemes: the paper's 4 measurements 30 deg apart, and a wide one of 7
 measurements 20 deg apart (120 deg). Held-out conditions (``--variants``) change the world,
-not the protocol: doubled sensor noise, skin friction 0.3 and 0.8, free links of 60 and
-150 mm. Errors are |(p, q)_est - (p, q)_true| in mm.
+not the protocol: the ideal sensor (the v1 ids'), doubled sensor noise, skin friction 0.3 and
+0.8, free links of 60 and 150 mm. Errors are |(p, q)_est - (p, q)_true| in mm.
 """
 
 from __future__ import annotations
@@ -137,8 +137,9 @@ SENSORS = {
 }
 
 #: Held-out conditions: a change of the world, the protocol unchanged; the shipped env presets
-#: (``configs/env``: sensor noise x2, friction 0.3 and 0.8, links of 60 and 150 mm). With
-#: another grip the operator's nominal layout is that grip's (it is in plain sight).
+#: (``configs/env``: the ideal sensor, sensor noise x2, friction 0.3 and 0.8, links of 60 and
+#: 150 mm). With another grip the operator's nominal layout is that grip's (it is in plain
+#: sight).
 CONDITIONS = {"nominal": {}, **{name: load_preset("env", name) for name in preset_names("env")}}
 
 
