@@ -243,6 +243,10 @@ class HingeProbeEnv(gym.Env):
     | 3-5   | rotation vector about the tip   | ``max_rotation`` (3 deg)   | world |
     | 6     | tare the F/T sensor if > 0.5    | -                          | -     |
 
+    The rotation turns the fingertip about the centre of its hemisphere. The move is spread over
+    the control step; a guard stops the fingertip advancing while the force exceeds
+    ``force_limit``. (``HingeProbePrimitive-v2`` offers probing primitives instead.)
+
     **Taring** (v2, ``docs/design.md`` 5.1). The env tares at reset (every episode starts in
     free air) and when ``a[6] > 0.5``: after the move, the step's reading, the mean of
     ``TARE_SAMPLES`` sensor samples, becomes the new zero, taken at the commanded pose. A tare
@@ -250,10 +254,7 @@ class HingeProbeEnv(gym.Env):
     refused (``info["tare_refused"]``); otherwise it is taken (``info["tared"]``). A tare during
     a contact too light to read (|f| below the threshold) is taken, as a real robot would: its
     force then stays in every reading as an offset, and the policy carries that error until it
-    tares again in free air. ``info["tare_age"]`` is the time since the last tare, s. The
-    rotation turns the fingertip about the centre of its hemisphere. The move is spread over the
-    control step; a guard stops the fingertip advancing while the force exceeds ``force_limit``.
-    (``HingeProbePrimitive-v2`` offers probing primitives instead.)
+    tares again in free air. ``info["tare_age"]`` is the time since the last tare, s.
 
     ## Observation Space
 
@@ -421,7 +422,6 @@ class HingeProbeEnv(gym.Env):
         self.action_space = spaces.Box(
             -1.0, 1.0, shape=(7 if cfg.tare_action else 6,), dtype=np.float32
         )
-        self._tare = Tare.of(self._sensor_config)
         self._guard = StepGuard(self.action_space)
         self._scene: ProbeScene | None = None
 
