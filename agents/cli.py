@@ -38,6 +38,18 @@ from typing import Any
 
 import yaml
 
+import tactile_gym
+
+#: Every id the commands take: the current ids, and the legacy ones that committed models use.
+KNOWN_ENV_IDS: tuple[str, ...] = tactile_gym.ENV_IDS + tactile_gym.LEGACY_ENV_IDS
+
+
+def check_env_id(field: str, env_id: str) -> None:
+    """A ``ValueError`` naming ``field`` unless ``env_id`` is one of ``KNOWN_ENV_IDS``."""
+    if env_id not in KNOWN_ENV_IDS:
+        raise ValueError(f"{field} must be one of {', '.join(KNOWN_ENV_IDS)}, got {env_id!r}")
+
+
 #: Errors that mean "the input was wrong", not "the code is wrong": reported in one line.
 #: ``ImportError`` is a missing extra (its message names the install command).
 EXPECTED_ERRORS = (ValueError, FileNotFoundError, IsADirectoryError, ImportError, yaml.YAMLError)

@@ -36,11 +36,18 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-import tactile_gym
 from tactile_gym.envs.hinge_probe_primitive_v1 import PRIMITIVE_KEYWORDS
 from tactile_gym.envs.skills import PrimitiveExecutor
 
-from .cli import KEY_VALUE_HELP, KeyValue, make_parser, progress_bar, run_main
+from .cli import (
+    KEY_VALUE_HELP,
+    KNOWN_ENV_IDS,
+    KeyValue,
+    check_env_id,
+    make_parser,
+    progress_bar,
+    run_main,
+)
 from .plots import plot_errors
 from .scripted import scripted_policy
 from .train import DEFAULT_ENV_ID, algorithm_class, make_env, torch_threads, vecnormalize_path
@@ -358,8 +365,7 @@ def resolve_policies(
                 "choose the env with --env"
             )
         env_id = trained_on.pop() if trained_on else DEFAULT_ENV_ID
-    if env_id not in tactile_gym.ENV_IDS:
-        raise ValueError(f"env_id must be one of {tactile_gym.ENV_IDS}, got {env_id!r}")
+    check_env_id("env_id", env_id)
     for name, run in runs.items():
         check_model_env(name, run["env_id"], env_id, force)
     specs = []
@@ -625,7 +631,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     parser.add_argument(
         "--env",
         default=None,
-        help=f"one of {', '.join(tactile_gym.ENV_IDS)}; default: the models' own id, "
+        help=f"one of {', '.join(KNOWN_ENV_IDS)}; default: the models' own id, "
         f"else {DEFAULT_ENV_ID}",
     )
     parser.add_argument(

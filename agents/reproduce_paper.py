@@ -2,6 +2,7 @@
 
     python -m agents.reproduce_paper                      # 10 trials per cell, table + plots
     python -m agents.reproduce_paper --trials 30 --seeds 3 --variants all
+    python -m agents.reproduce_paper --sensor offset --no-tare   # an uncompensated offset
 
 The scene is the paper's: scissors on the table, the right grip (the free link) hinged about
 a vertical axis at (17, 105) mm, a soft fingertip on a 6-axis F/T sensor held upright like the
@@ -22,6 +23,12 @@ trial and never told. Everything the finger does follows from F/T readings:
   normal and the edge direction, with the noise std divided by sqrt(n) and the env's
   contact shape (``docs/design.md`` 4.5). If the finger sinks ``MISS_DEPTH`` below the grip's
   nominal top without touching, there is no grip under it.
+* **Tare** (:class:`~tactile_gym.sensing.Tare`): before each press, right after the lift to
+  the travel height (``TRAVEL_CLEARANCE`` above the grip's nominal top) and before moving
+  over, the finger holds still and tares the sensor on ``TARE_SAMPLES`` samples; the
+  press's readings are compensated with that tare (the finger points down throughout, so
+  the fingertip's weight does not change). ``--no-tare`` skips it: the raw readings, with
+  the sensor's offset, drift and weight, go to the press and the sensing.
 * **Edge search** (:func:`find_edge`): presses along a line across the edge. A press whose
   patch the edge truncates shifts the contact toward the face's interior (the skin normal
   leans that way) and tilts the force off the normal; a press on the open face puts the
@@ -51,10 +58,15 @@ trial and never told. Everything the finger does follows from F/T readings:
   relative to the grip, one press usually confirms it. The contact stays at the same point
   of the grip.
 
+The sensor is the env's default (``SensorConfig()``, the realistic one: an offset drawn per
+trial, drift, the fingertip's weight); ``--sensor`` picks another (``SENSORS``: ``ideal``,
+the v1 ids' white noise only, and ``offset``, the ideal one with a constant offset of 0.1 N
+and 2e-3 N m per axis, which shows what an uncompensated zero costs with ``--no-tare``).
+
 Measurement schemes: the paper's 4 measurements 30 deg apart, and a wide one of 7
 measurements 20 deg apart (120 deg). Held-out conditions (``--variants``) change the world,
-not the protocol: doubled sensor noise, skin friction 0.3 and 0.8, free links of 60 and
-150 mm. Errors are |(p, q)_est - (p, q)_true| in mm.
+not the protocol: the ideal sensor (the v1 ids'), doubled sensor noise, skin friction 0.3 and
+0.8, free links of 60 and 150 mm. Errors are |(p, q)_est - (p, q)_true| in mm.
 """
 
 from __future__ import annotations
@@ -64,14 +76,22 @@ import json
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from tactile_gym.estimation import fit_axis_planar, fit_axis_simple
 from tactile_gym.presets import load_preset, preset_names
-from tactile_gym.sensing import PressConfig, PressController, Touch, TouchSensor, run_press
+from tactile_gym.sensing import (
+    TARE_SAMPLES,
+    PressConfig,
+    PressController,
+    Tare,
+    Touch,
+    TouchSensor,
+    run_press,
+)
 from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
 from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
 
@@ -106,11 +126,20 @@ END_CLEARANCE = 0.012  # m, the first search keeps this far from the grip's free
 START_INSET = 0.005  # m inside the nominal edge, the first search
 START_ANGLE_RANGE = math.radians(10.0)  # rad, the grip's true start angle, +- (never told)
 HAND_HOLD_TORQUE = 2.0  # N m, the hand steadying the grip (the loose hinge: 0.1 N m)
-DOWN = matrix_to_quaternion(z_to([0.0, 0.0, -1.0]))  # finger axis pointing down
+DOWN_ROTATION = z_to([0.0, 0.0, -1.0])  # finger axis pointing down, sensor to world
+DOWN = matrix_to_quaternion(DOWN_ROTATION)
+#: The F/T sensors of ``--sensor``: the env's default (realistic), the v1 ids' ideal one, and
+#: the ideal one with a constant offset that only a tare removes.
+SENSORS = {
+    "realistic": SensorConfig(),
+    "ideal": SensorConfig.ideal(),
+    "offset": SensorConfig.ideal(force_bias=(0.1, 0.1, 0.1), moment_bias=(2e-3, 2e-3, 2e-3)),
+}
 
 #: Held-out conditions: a change of the world, the protocol unchanged; the shipped env presets
-#: (``configs/env``: sensor noise x2, friction 0.3 and 0.8, links of 60 and 150 mm). With
-#: another grip the operator's nominal layout is that grip's (it is in plain sight).
+#: (``configs/env``: the ideal sensor, sensor noise x2, friction 0.3 and 0.8, links of 60 and
+#: 150 mm). With another grip the operator's nominal layout is that grip's (it is in plain
+#: sight).
 CONDITIONS = {"nominal": {}, **{name: load_preset("env", name) for name in preset_names("env")}}
 
 
@@ -187,6 +216,7 @@ class Pressed:
     centre: np.ndarray
     press: PressController
     touch: Touch | None
+    tare: Tare | None = None
 
     @property
     def touched(self) -> bool:
@@ -276,9 +306,28 @@ def _hold_or_lower(scene: ProbeScene, pressed: Pressed) -> Callable[[float], obj
     return move
 
 
+def _reading(scene: ProbeScene, tare: Tare | None, rng: np.random.Generator) -> np.ndarray:
+    """A reading, compensated with ``tare`` (None: raw)."""
+    reading = scene.read_wrench(rng)
+    return reading if tare is None else tare.compensate(reading, DOWN_ROTATION)
+
+
+def tare_here(scene: ProbeScene, rng: np.random.Generator) -> Tare:
+    """Hold the finger still in free air for a control step and tare on the mean of
+    ``TARE_SAMPLES`` sensor samples, as the env's tare does."""
+    scene.control_step(scene.fingertip_position, DOWN)
+    tare = Tare.of(scene.sensor_config)
+    tare.take(scene.read_wrench(rng, TARE_SAMPLES), DOWN_ROTATION)
+    return tare
+
+
 def _read_pressed(scene: ProbeScene, pressed: Pressed, rng: np.random.Generator) -> Pressed:
     """Run the press to its end and read what it averaged (``TouchSensor.sense``)."""
-    run_press(pressed.press, lambda: scene.read_wrench(rng), _hold_or_lower(scene, pressed))
+    run_press(
+        pressed.press,
+        lambda: _reading(scene, pressed.tare, rng),
+        _hold_or_lower(scene, pressed),
+    )
     if pressed.press.phase == "done":
         sensor = TouchSensor(
             scene.geometry, scene.sensor_config, scene.skin_config.normal_stiffness
@@ -293,7 +342,11 @@ def _read_pressed(scene: ProbeScene, pressed: Pressed, rng: np.random.Generator)
 
 
 def press(
-    scene: ProbeScene, xy: np.ndarray, nominal: NominalLayout, rng: np.random.Generator
+    scene: ProbeScene,
+    xy: np.ndarray,
+    nominal: NominalLayout,
+    rng: np.random.Generator,
+    tare: bool = True,
 ) -> Pressed:
     """Press straight down at world x-y ``xy`` with the shared press (``PRESS``).
 
@@ -307,11 +360,13 @@ def press(
         xy: (2,) where to press, world, m.
         nominal: the nominal layout (the grip's top height).
         rng: the noise of the readings.
+        tare: tare in free air after the lift (module docstring); False: raw readings.
     """
     lift(scene, nominal)
+    zero = tare_here(scene, rng) if tare else None
     centre = np.r_[np.asarray(xy, dtype=float), _travel_height(scene, nominal)]
     _move(scene, centre)
-    pressed = _read_pressed(scene, Pressed(centre, PressController(PRESS), None), rng)
+    pressed = _read_pressed(scene, Pressed(centre, PressController(PRESS), None, zero), rng)
     if not pressed.touched:
         lift(scene, nominal)
     return pressed
@@ -341,6 +396,7 @@ def find_edge(
     outward: np.ndarray,
     nominal: NominalLayout,
     rng: np.random.Generator,
+    tare: bool = True,
 ) -> tuple[Pressed, np.ndarray, int]:
     """Find the probed edge by touch and measure there.
 
@@ -354,6 +410,7 @@ def find_edge(
         outward: (2,) unit direction across the edge, away from the grip's interior.
         nominal: the nominal layout.
         rng: the noise of the readings.
+        tare: tare before each press (``press``).
 
     Returns:
         (the measurement press, the outward direction it was found along, presses taken).
@@ -362,7 +419,7 @@ def find_edge(
     outward = np.asarray(outward, dtype=float)
     misses, anchor = 0, xy
     for k in range(1, MAX_PRESSES + 1):
-        pressed = press(scene, xy, nominal, rng)
+        pressed = press(scene, xy, nominal, rng, tare)
         if pressed.touched and pressed.touch.valid:
             misses = 0
             if pressed.touch.edge_std < TRUSTED_EDGE_STD:
@@ -433,6 +490,7 @@ def run_trial(
     step: float,
     slides: bool,
     rng: np.random.Generator,
+    tare: bool = True,
 ) -> Trial:
     """One trial of the paper's sequence: N measurements, the grip turned ``step`` between.
 
@@ -442,12 +500,13 @@ def run_trial(
         n: number of measurements.
         step: turn of the hand between measurements, rad (counter-clockwise).
         slides: whether the contact slides along the edge (else the hand carries the finger).
-        rng: start angle and reading noise.
+        rng: start angle, the sensor's offset for the trial and reading noise.
+        tare: tare before each press (``press``).
     """
     start_angle = rng.uniform(-START_ANGLE_RANGE, START_ANGLE_RANGE)
     start, outward = nominal.first_search(START_ALONG["slides" if slides else "fixed"])
     home = np.r_[start, _travel_height(scene, nominal)]
-    scene.reset(start_angle, _sensor_position(scene, home), DOWN)
+    scene.reset(start_angle, _sensor_position(scene, home), DOWN, rng=rng)
     hinge = np.asarray(nominal.hinge, dtype=float)
     points, edges, centres, presses = [], [], [], []
     for i in range(n):
@@ -468,7 +527,7 @@ def run_trial(
                     start = centre
             else:
                 start = _sphere_centre(scene)[:2]
-        pressed, outward, k = find_edge(scene, start, outward, nominal, rng)
+        pressed, outward, k = find_edge(scene, start, outward, nominal, rng, tare)
         points.append(pressed.point)
         edges.append(pressed.edge)
         centres.append(pressed.centre)
@@ -492,13 +551,16 @@ def run_trial(
 # --- the experiment ----------------------------------------------------------------------
 
 
-def make_scene(condition: str) -> ProbeScene:
-    """The paper's scene under a condition of ``CONDITIONS``, the hand holding the grip."""
+def make_scene(condition: str, sensor: str = "realistic") -> ProbeScene:
+    """The paper's scene under a condition of ``CONDITIONS``, the hand holding the grip,
+    with a sensor of ``SENSORS`` (a condition's ``sensor_model`` and ``sensor`` fields
+    change it)."""
     change = CONDITIONS[condition]
+    base = SENSORS[change.get("sensor_model", sensor)]
     return ProbeScene(
         condition_object(condition),
         SkinConfig(**change.get("skin", {})),
-        SensorConfig(**change.get("sensor", {})),
+        replace(base, **change.get("sensor", {})),
     )
 
 
@@ -508,11 +570,14 @@ def reproduce(
     conditions: tuple[str, ...] = ("nominal",),
     schemes: tuple[str, ...] = tuple(SCHEMES),
     nominal: NominalLayout | None = None,
+    sensor: str = "realistic",
+    tare: bool = True,
 ) -> dict:
     """Run every cell: ``trials`` trials per seed, each condition, scheme and contact case.
 
     The trials of a cell draw from the same random streams under every condition, so the
-    conditions differ only by what they change.
+    conditions differ only by what they change. ``sensor`` (of ``SENSORS``) and ``tare``
+    (tare before each press) apply to every condition.
 
     Returns:
         ``{key: cell}`` with key ``(scheme, case)`` for the nominal condition and
@@ -521,7 +586,7 @@ def reproduce(
     """
     results = {}
     for condition in conditions:
-        scene = make_scene(condition)
+        scene = make_scene(condition, sensor)
         layout = NominalLayout.of(condition_object(condition))
         if nominal is not None and condition == "nominal":
             layout = nominal
@@ -533,7 +598,7 @@ def reproduce(
                     for seed in seeds:
                         rng = np.random.default_rng([seed, n, CASES.index(case)])
                         for _ in range(trials):
-                            t = run_trial(scene, layout, n, step, case == "slides", rng)
+                            t = run_trial(scene, layout, n, step, case == "slides", rng, tare)
                             runs.append(t)
                             proposed.append(1e3 * position_error(scene, t.proposed))
                             simple.append(1e3 * position_error(scene, t.simple))
@@ -563,6 +628,15 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--schemes", default="paper,wide", help="comma list of " + ", ".join(SCHEMES)
     )
+    parser.add_argument(
+        "--sensor",
+        default="realistic",
+        choices=tuple(SENSORS),
+        help="the F/T sensor (default: realistic)",
+    )
+    parser.add_argument(
+        "--no-tare", action="store_true", help="never tare: press on the raw readings"
+    )
     parser.add_argument("--out", default="results/paper")
     parser.add_argument("--no-plot", action="store_true")
     args = parser.parse_args(argv)
@@ -584,7 +658,14 @@ def main(argv: list[str] | None = None) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     seeds = tuple(range(args.seed, args.seed + args.seeds))
     t0 = time.perf_counter()
-    results = reproduce(args.trials, seeds, ("nominal", *variants), schemes)
+    results = reproduce(
+        args.trials,
+        seeds,
+        ("nominal", *variants),
+        schemes,
+        sensor=args.sensor,
+        tare=not args.no_tare,
+    )
     table = markdown_table(results, args.trials, len(seeds), SCHEMES)
     print(table)
     print(f"({time.perf_counter() - t0:.0f} s)")

@@ -18,11 +18,11 @@ Once the link stops following (two drags in a row that turn it less than ``stall
 joint limit), the policy keeps probing at the last angle.
 The policy reads only observations; it never reads the simulator.
 
-``PrimitiveProber`` chooses primitives (the action of the ``...Primitive-v1`` ids);
+``PrimitiveProber`` chooses primitives (the action of the ``...Primitive-v2`` ids);
 ``SkillProber`` runs the same choices through the same skills step by step for the 6-D ids.
 ``scripted_policy(env)`` returns the right one for any v1 env.
 
-    python -m agents.scripted --env tactile_gym/HingeProbe-v1 --episodes 5
+    python -m agents.scripted --env tactile_gym/HingeProbe-v2 --episodes 5
 """
 
 from __future__ import annotations
@@ -163,7 +163,7 @@ class SkillProber:
         self.executor.reset()
 
     def get_action(self, obs: dict) -> np.ndarray:
-        """The next 6-D action for a dict observation."""
+        """The next 6-D action (7-D with the tare on v2 ids) for a dict observation."""
         action = self.executor.act(obs)
         while action is None:
             self.executor.start(self.chooser.act(obs), obs)
@@ -190,7 +190,7 @@ class _Policy:
 
 
 def scripted_policy(env):
-    """The scripted baseline of a v1 env (any id, either action mode); pass ``gym.make(...)``."""
+    """The scripted baseline of any id (either action mode, v1 or v2); pass ``gym.make(...)``."""
     codec = env.get_wrapper_attr("codec")
     if env.action_space.shape == (3,):
         return _Policy(PrimitiveProber(env.get_wrapper_attr("scales")), codec, True)
@@ -203,7 +203,7 @@ def main(argv: list[str] | None = None) -> None:
     import tactile_gym  # noqa: F401 - registers the envs
 
     parser = argparse.ArgumentParser(description="Run the scripted baseline and print errors.")
-    parser.add_argument("--env", default="tactile_gym/HingeProbe-v1")
+    parser.add_argument("--env", default="tactile_gym/HingeProbe-v2")
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)

@@ -46,7 +46,7 @@ import yaml
 import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
 
-from .cli import EXPECTED_ERRORS, make_parser, run_main
+from .cli import EXPECTED_ERRORS, check_env_id, make_parser, run_main
 from .train import ALGOS, check_hyperparameters, latest_checkpoint, load_hyperparameters, make_env
 
 SWEEP_KEYS = {
@@ -122,8 +122,7 @@ def load_sweep(sweep: str | Path | dict) -> dict[str, Any]:
     env_ids = config.get("env_ids", "all")
     config["env_ids"] = list(tactile_gym.ENV_IDS) if env_ids == "all" else list(env_ids)
     for env_id in config["env_ids"]:
-        if env_id not in tactile_gym.ENV_IDS:
-            raise ValueError(f"env_ids: each must be one of {tactile_gym.ENV_IDS}, got {env_id!r}")
+        check_env_id("env_ids: each", env_id)
     config["algos"] = list(config.get("algos") or ["ppo"])
     for algo in config["algos"]:
         if algo not in ALGOS:

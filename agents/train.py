@@ -47,7 +47,15 @@ import yaml
 import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
 
-from .cli import KEY_VALUE_HELP, KeyValue, make_parser, require, run_main
+from .cli import (
+    KEY_VALUE_HELP,
+    KNOWN_ENV_IDS,
+    KeyValue,
+    check_env_id,
+    make_parser,
+    require,
+    run_main,
+)
 
 ALGOS = ("ppo", "sac")
 VEC_ENVS = ("auto", "vector", "dummy", "subproc")
@@ -363,8 +371,7 @@ def train(
 
     from .vec_env import make_sb3_vec_env
 
-    if env_id not in tactile_gym.ENV_IDS:
-        raise ValueError(f"env_id must be one of {tactile_gym.ENV_IDS}, got {env_id!r}")
+    check_env_id("env_id", env_id)
     if vec_env not in VEC_ENVS:
         raise ValueError(f"vec_env must be one of {VEC_ENVS}, got {vec_env!r}")
     config = resolve_config(algo, env_id, config_path, hyperparams, env_kwargs, n_timesteps, n_envs)
@@ -591,7 +598,7 @@ def clock(seconds: float) -> str:
 def main(argv: list[str] | None = None) -> Path:
     parser = make_parser(__spec__.name if __spec__ else "agents.train", __doc__)
     parser.add_argument("--algo", choices=ALGOS, default="ppo", help="the algorithm")
-    parser.add_argument("--env", default=DEFAULT_ENV_ID, help=f"one of {tactile_gym.ENV_IDS}")
+    parser.add_argument("--env", default=DEFAULT_ENV_ID, help=f"one of {', '.join(KNOWN_ENV_IDS)}")
     parser.add_argument(
         "--n-timesteps",
         type=int,

@@ -5,19 +5,22 @@ Importing the package registers its environments with Gymnasium::
     import gymnasium as gym
     import tactile_gym  # noqa: F401
 
-    env = gym.make("tactile_gym/HingeProbe-v1")
-    envs = gym.make_vec("tactile_gym/HingeProbe-v1", num_envs=4)  # N scenes, one process
+    env = gym.make("tactile_gym/HingeProbe-v2")
+    envs = gym.make_vec("tactile_gym/HingeProbe-v2", num_envs=4)  # N scenes, one process
 
 ``tactile_gym.sensing`` and ``tactile_gym.estimation`` import without pybullet; the
 environment modules are only imported when an env is made.
 
-The v0 ids are retired: their skin model gave no edge direction from a pure press and their
-start pose revealed the edge (``docs/design.md``, "Versions").
+The v2 ids are the current ones: a realistic F/T sensor (offset, drift, the fingertip's weight)
+and taring. The v1 ids (``LEGACY_ENV_IDS``: the ideal sensor, a 6-D action, no tare) stay
+registered unchanged, so that models trained on them still run. The v0 ids are retired: their
+skin model gave no edge direction from a pure press and their start pose revealed the edge
+(``docs/design.md``, "Versions").
 """
 
 from gymnasium.envs.registration import register
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 _PLANAR = {"families": ("scissors",), "estimator": "planar"}
 # The lid is left out of the 3D mix: lying on the table it can only be pushed shut, so a
@@ -25,39 +28,39 @@ _PLANAR = {"families": ("scissors",), "estimator": "planar"}
 # still builds it.
 _3D = {"families": ("scissors", "door", "tilted"), "estimator": "3d"}
 
-#: Every registered environment id: two tasks (the paper's planar scissors; scissors, doors
-#: and tilted axes with a 3D estimator), each with two action modes on the same physics (6-D
-#: fingertip motions, or probing primitives that run the former underneath).
-ENV_IDS: tuple[str, ...] = (
-    "tactile_gym/HingeProbe-v1",
-    "tactile_gym/HingeProbe3D-v1",
-    "tactile_gym/HingeProbePrimitive-v1",
-    "tactile_gym/HingeProbe3DPrimitive-v1",
+# v1: the ideal sensor (white noise only) and no tare (docs/design.md 10).
+_V1 = {"sensor_model": "ideal", "tare_action": False}
+
+_SIX_D = (
+    "tactile_gym.envs.hinge_probe_v1:HingeProbeEnv",
+    "tactile_gym.envs.vector:make_vector_env",
+)
+_PRIMITIVE = (
+    "tactile_gym.envs.hinge_probe_primitive_v1:make_primitive_env",
+    "tactile_gym.envs.vector:make_primitive_vector_env",
+)
+#: Each task: its name, its entry points (single env, vector env) and its keywords.
+_TASKS = (
+    ("HingeProbe", _SIX_D, _PLANAR),
+    ("HingeProbe3D", _SIX_D, _3D),
+    ("HingeProbePrimitive", _PRIMITIVE, _PLANAR),
+    ("HingeProbe3DPrimitive", _PRIMITIVE, _3D),
 )
 
-register(
-    id="tactile_gym/HingeProbe-v1",
-    entry_point="tactile_gym.envs.hinge_probe_v1:HingeProbeEnv",
-    vector_entry_point="tactile_gym.envs.vector:make_vector_env",
-    kwargs=_PLANAR,
-)
-register(
-    id="tactile_gym/HingeProbe3D-v1",
-    entry_point="tactile_gym.envs.hinge_probe_v1:HingeProbeEnv",
-    vector_entry_point="tactile_gym.envs.vector:make_vector_env",
-    kwargs=_3D,
-)
-register(
-    id="tactile_gym/HingeProbePrimitive-v1",
-    entry_point="tactile_gym.envs.hinge_probe_primitive_v1:make_primitive_env",
-    vector_entry_point="tactile_gym.envs.vector:make_primitive_vector_env",
-    kwargs=_PLANAR,
-)
-register(
-    id="tactile_gym/HingeProbe3DPrimitive-v1",
-    entry_point="tactile_gym.envs.hinge_probe_primitive_v1:make_primitive_env",
-    vector_entry_point="tactile_gym.envs.vector:make_primitive_vector_env",
-    kwargs=_3D,
-)
+#: The current environment ids: two tasks (the paper's planar scissors; scissors, doors and
+#: tilted axes with a 3D estimator), each with two action modes on the same physics (6-D
+#: fingertip motions and a tare, or probing primitives that run the former underneath).
+ENV_IDS: tuple[str, ...] = tuple(f"tactile_gym/{name}-v2" for name, _, _ in _TASKS)
+#: The v1 ids, the same tasks with the ideal sensor and no tare.
+LEGACY_ENV_IDS: tuple[str, ...] = tuple(i.replace("-v2", "-v1") for i in ENV_IDS)
 
-__all__ = ["ENV_IDS", "__version__"]
+for _version, _extra in (("v2", {}), ("v1", _V1)):
+    for _name, (_entry, _vector_entry), _kwargs in _TASKS:
+        register(
+            id=f"tactile_gym/{_name}-{_version}",
+            entry_point=_entry,
+            vector_entry_point=_vector_entry,
+            kwargs={**_kwargs, **_extra},
+        )
+
+__all__ = ["ENV_IDS", "LEGACY_ENV_IDS", "__version__"]

@@ -69,7 +69,7 @@ def test_env_factory_registers_the_ids_in_a_fresh_process():
 
     factory = functools.partial(train.make_env, train.DEFAULT_ENV_ID)
     with multiprocessing.get_context("spawn").Pool(1) as pool:
-        assert pool.apply(_action_space_shape, (factory,)) == (6,)
+        assert pool.apply(_action_space_shape, (factory,)) == (7,)  # v2: motion and tare
 
 
 def _action_space_shape(factory) -> tuple:
@@ -361,15 +361,15 @@ def test_a_primitive_policy_drives_the_6d_id(tmp_path):
     """A model learned on a primitive id acts on the matching 6-D id through the same skills."""
     pytest.importorskip("stable_baselines3")
     run_dir = train.main(
-        ["--algo", "ppo", "--env", "tactile_gym/HingeProbePrimitive-v1", "--n-timesteps", "32",
+        ["--algo", "ppo", "--env", "tactile_gym/HingeProbePrimitive-v2", "--n-timesteps", "32",
          "--n-envs", "1", "--log-folder", str(tmp_path), "--eval-freq", "0",
          "--checkpoint-freq", "0", "--no-progress-bar",
          "--config", str(_tiny_config(tmp_path, "ppo")), "--env-kwargs", "max_primitives:64"]
     )  # fmt: skip
     model = str(run_dir / "final_model.zip")
-    [spec] = evaluate.resolve_policies([model], env_id="tactile_gym/HingeProbe-v1")
+    [spec] = evaluate.resolve_policies([model], env_id="tactile_gym/HingeProbe-v2")
     assert "max_primitives" not in spec.env_kwargs
-    env = gym.make("tactile_gym/HingeProbe-v1", max_steps=60)
+    env = gym.make("tactile_gym/HingeProbe-v2", max_steps=60)
     policy = evaluate.make_policy(model, env)
     assert isinstance(policy, evaluate.PrimitiveModelPolicy)
     record = evaluate.run_episode(env, policy, seed=1000)

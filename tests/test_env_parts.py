@@ -50,7 +50,7 @@ def test_controller_scales_translation_and_rotates_about_the_tip():
 
 def test_codec_names_every_entry_of_the_observation():
     """Encoding named groups and reading them back gives the values, at their places."""
-    env = gym.make("tactile_gym/HingeProbe-v1")
+    env = gym.make("tactile_gym/HingeProbe-v2")
     obs, _ = env.reset(seed=4)
     codec = env.unwrapped.codec
     assert codec.dict_space == env.observation_space
@@ -84,7 +84,7 @@ def test_codec_clips_to_the_bounds_and_zeroes_nan():
 def test_pipeline_turns_a_held_press_into_one_measurement():
     """The pipeline's state after the scripted policy's first measurement, and its rule of
     one measurement per touch on more readings of the held press."""
-    env = gym.make("tactile_gym/HingeProbe-v1")
+    env = gym.make("tactile_gym/HingeProbe-v1")  # v1: the raw readings below are the ideal sensor's
     u = env.unwrapped
     policy = scripted_policy(env)
     obs, info = env.reset(seed=1000)
@@ -207,7 +207,7 @@ def test_prior_summarises_the_reset_distribution():
 
 
 def test_env_starts_from_its_prior():
-    env = gym.make("tactile_gym/HingeProbe-v1")
+    env = gym.make("tactile_gym/HingeProbe-v2")
     obs, info = env.reset(seed=0)
     u = env.unwrapped
     assert u.axis_estimate.method == "prior"
@@ -227,7 +227,7 @@ def test_plot_top_view(tmp_path):
     matplotlib.use("Agg")
     from tactile_gym.envs.plotting import LABELS, plot_top_view
 
-    env = gym.make("tactile_gym/HingeProbe-v1", max_steps=120)
+    env = gym.make("tactile_gym/HingeProbe-v2", max_steps=120)
     policy = scripted_policy(env)
     obs, _ = env.reset(seed=1000)
     done = False

@@ -65,7 +65,8 @@ def test_primitive_ids_wrap_the_6d_env(env_id):
     assert isinstance(wrapper, HingeProbePrimitiveEnv) and isinstance(wrapper, gym.Wrapper)
     assert wrapper.max_primitives == 3 and wrapper.scales.probe_along == 0.005
     assert env.unwrapped is wrapper.env
-    assert env.unwrapped.action_space.shape == (6,)
+    # The 6-D env underneath, with its tare component (v2).
+    assert env.unwrapped.action_space.shape == (7,)
     assert env.get_wrapper_attr("dict_observation_space") is wrapper.dict_observation_space
     obs, _ = env.reset(seed=0)
     for _ in range(3):

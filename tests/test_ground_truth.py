@@ -125,7 +125,7 @@ def test_episodes_never_feed_truth_to_the_measurement_path(audit, env_id, policy
 def test_the_audit_catches_a_leak(audit):
     """The check can fail: a gate that peeks at the joint angle is reported."""
     violations, _ = audit
-    env = gym.make("tactile_gym/HingeProbe-v1", max_steps=3)
+    env = gym.make("tactile_gym/HingeProbe-v2", max_steps=3)
     env.reset(seed=0)
     gate = env.unwrapped.gate
     offer = gate.offer
@@ -135,7 +135,7 @@ def test_the_audit_catches_a_leak(audit):
         return offer(*args)
 
     gate.offer = leaky_offer
-    env.step(np.zeros(6, np.float32))
+    env.step(np.zeros(7, np.float32))
     env.close()
     assert any("joint_angle read by leaky_offer" in v for v in violations)
 

@@ -67,8 +67,8 @@ def test_edge_search_finds_the_edge_by_touch(scene, offset):
 
 def test_press_stops_on_the_noisy_reading():
     # A force bias of 1.5 N along the finger axis makes the reading 1.5 N higher than the
-    # true force: the press must stop on the reading, at a true 3.5 N.
-    sensor = SensorConfig(force_bias=(0.0, 0.0, -1.5))
+    # true force: untared, the press must stop on the reading, at a true 3.5 N.
+    sensor = SensorConfig.ideal(force_bias=(0.0, 0.0, -1.5))
     config = ObjectConfig.scissors(holding_torque=rp.HAND_HOLD_TORQUE)
     with ProbeScene(config, SkinConfig(), sensor) as biased:
         biased.reset(0.0, [0.06, 0.105, 0.05], rp.DOWN)
@@ -81,7 +81,7 @@ def test_press_stops_on_the_noisy_reading():
 
         biased.control_step = recording_step
         xy = np.array([0.06, 0.105])  # the middle of the grip's top face
-        pressed = rp.press(biased, xy, NOMINAL, np.random.default_rng(0))
+        pressed = rp.press(biased, xy, NOMINAL, np.random.default_rng(0), tare=False)
         assert pressed.touched
         assert abs(np.linalg.norm(pressed.wrench[:3]) - 5.0) <= rp.PRESS.tolerance
         assert 3.1 < np.linalg.norm(biased.true_wrench[:3]) < 3.9
@@ -99,3 +99,21 @@ def test_proposed_method_does_not_need_the_true_layout():
         assert max(results[("paper", case)]["proposed_mm"]) < 6.0
     sliding = results[("paper", "slides")]
     assert np.mean(sliding["simple_mm"]) > 3 * np.mean(sliding["proposed_mm"])
+
+
+def test_sensor_choice_and_the_tare_before_each_press():
+    # --sensor picks the scene's sensor; a condition's sensor_model overrides it.
+    with rp.make_scene("nominal", "offset") as scene:
+        assert scene.sensor_config == rp.SENSORS["offset"]
+    with rp.make_scene("ideal") as scene:
+        assert scene.sensor_config == SensorConfig.ideal()
+    # A tared press on the realistic sensor (offset, weight) stops at the true 5 N.
+    config = ObjectConfig.scissors(holding_torque=rp.HAND_HOLD_TORQUE)
+    with ProbeScene(config, SkinConfig(), SensorConfig()) as scene:
+        rng = np.random.default_rng(0)
+        scene.reset(0.0, [0.06, 0.105, 0.05], rp.DOWN, rng=rng)
+        pressed = rp.press(scene, np.array([0.06, 0.105]), NOMINAL, rng)
+        assert pressed.touched and pressed.tare is not None and pressed.tare.taken
+        assert abs(np.linalg.norm(scene.true_wrench[:3]) - 5.0) <= rp.PRESS.tolerance + 0.1
+    with pytest.raises(SystemExit):
+        rp.main(["--sensor", "perfect"])

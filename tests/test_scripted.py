@@ -1,4 +1,4 @@
-"""The scripted baselines of every v1 id: they solve the task from observations alone."""
+"""The scripted baselines of every current (v2) id: they solve the task from observations alone."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 import tactile_gym
 from agents.scripted import scripted_policy
 
-#: Targets on held-out seeds (issue "HingeProbe-v1"): planar ids median final position error
+#: Targets on held-out seeds (issues "HingeProbe-v1" and 17): planar ids median final position error
 #: <= 3 mm and success >= 50 %; 3D ids median <= 5 mm and median angle error <= 3 deg.
 PLANAR_MEDIAN, PLANAR_SUCCESS = 0.003, 0.5
 SPATIAL_MEDIAN, SPATIAL_ANGLE = 0.005, np.deg2rad(3.0)
@@ -36,15 +36,16 @@ def run(env_id: str, seeds, **kwargs) -> list[dict]:
 
 def test_both_action_modes_make_the_same_moves():
     """The primitive id runs the same skills the 6-D scripted policy sends step by step."""
-    a = run("tactile_gym/HingeProbe-v1", [1000], max_steps=150)[0]
-    b = run("tactile_gym/HingeProbePrimitive-v1", [1000], max_steps=150)[0]
+    # 165 steps: v1's 150 and one tare step before each press.
+    a = run("tactile_gym/HingeProbe-v2", [1000], max_steps=165)[0]
+    b = run("tactile_gym/HingeProbePrimitive-v2", [1000], max_steps=165)[0]
     assert a["n_measurements"] == b["n_measurements"] >= 4
     # Equal up to the float32 rounding of the primitive action.
     assert a["position_error"] == pytest.approx(b["position_error"], rel=1e-5)
 
 
 def test_scripted_turns_the_link_and_measures_it():
-    info = run("tactile_gym/HingeProbePrimitive-v1", [1001])[0]
+    info = run("tactile_gym/HingeProbePrimitive-v2", [1001])[0]
     assert info["n_measurements"] >= 8
     assert info["position_error"] < 0.004
 

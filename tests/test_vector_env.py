@@ -128,10 +128,12 @@ def test_one_sub_envs_termination_leaves_the_others_alone():
     envs.reset(seed=[0, 1])
     want, _ = other.reset(seed=1)
     rng = np.random.default_rng(0)
-    up = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0], np.float32)  # sub-env 0 rises out
+    n = envs.single_action_space.shape[0]
+    up = np.zeros(n, np.float32)
+    up[2] = 1.0  # sub-env 0 rises out
     ended_at = None
     for step in range(80):
-        actions = np.stack([up, rng.uniform(-1, 1, 6).astype(np.float32)])
+        actions = np.stack([up, rng.uniform(-1, 1, n).astype(np.float32)])
         obs, rewards, terminated, truncated, info = envs.step(actions)
         want, reward, *_ = other.step(actions[1])
         assert data_equivalence(_row(obs, 1), want, exact=True) and rewards[1] == reward
@@ -157,7 +159,7 @@ def test_same_step_autoreset_reports_the_final_observation():
     assert envs.metadata["autoreset_mode"] is AutoresetMode.SAME_STEP
     envs.reset(seed=[4, 9])
     single.reset(seed=4)
-    actions = np.zeros((2, 6), np.float32)
+    actions = np.zeros((2, *envs.single_action_space.shape), np.float32)
     envs.step(actions)
     single.step(actions[0])
     obs, _, _, truncated, info = envs.step(actions)
@@ -172,7 +174,7 @@ def test_same_step_autoreset_reports_the_final_observation():
 def test_disabled_autoreset_and_masked_reset():
     envs = _make_vec(ENV_IDS[0], 2, max_steps=1, autoreset_mode=AutoresetMode.DISABLED)
     first, _ = envs.reset(seed=0)
-    actions = np.zeros((2, 6), np.float32)
+    actions = np.zeros((2, *envs.single_action_space.shape), np.float32)
     envs.step(actions)
     with pytest.raises(RuntimeError, match="sub-env 0 of 2: the episode has ended"):
         envs.step(actions)
@@ -191,7 +193,7 @@ def test_gymnasiums_vector_wrappers_work_on_it():
     envs = FlattenObservation(RecordEpisodeStatistics(base))
     obs, _ = envs.reset(seed=0)
     assert obs.shape == (2, gym.spaces.flatdim(base.single_observation_space))
-    actions = np.zeros((2, 6), np.float32)
+    actions = np.zeros((2, *envs.single_action_space.shape), np.float32)
     envs.step(actions)
     *_, truncated, info = envs.step(actions)
     assert truncated.all() and info["episode"]["l"].tolist() == [2, 2]
@@ -302,7 +304,7 @@ def test_sb3_adapter_rejects_the_wrong_autoreset_and_works_with_sb3_wrappers():
     env.reset()
     episodes = []
     for _ in range(4):
-        obs, rewards, dones, infos = env.step(np.zeros((2, 6), np.float32))
+        obs, rewards, dones, infos = env.step(np.zeros((2, *env.action_space.shape), np.float32))
         episodes += [info["episode"]["l"] for info in infos if "episode" in info]
     assert episodes == [3, 3]  # VecMonitor saw both sub-envs' ends
     env.close()

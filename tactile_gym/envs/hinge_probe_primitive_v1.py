@@ -1,9 +1,9 @@
-"""HingeProbePrimitive v1: the same task and physics, acted on with probing primitives.
+"""HingeProbePrimitive v2 and v1: the same task and physics, acted on with probing primitives.
 
 ``HingeProbePrimitiveEnv`` is a ``gym.Wrapper`` over ``HingeProbeEnv``: each primitive runs
 the probing skills (``skills.py``) on the 6-D env until done (``docs/design.md`` 7.6). The
 registered ids are made by ``make_primitive_env``, which splits the wrapper's keywords from
-the 6-D env's.
+the 6-D env's; v2 and v1 wrap the 6-D env of their version (the file keeps its v1 name).
 """
 
 from __future__ import annotations
@@ -56,6 +56,10 @@ class HingeProbePrimitiveEnv(gym.Wrapper):
     | turn      | drag ``turn_distance`` (20 mm),        | along offset before the drag, as    |
     |           | positive toward the face's interior    | for probe                           |
 
+    On v2 both primitives tare the F/T sensor right after the lift, once the finger is 1 mm
+    clear of where the reading let go, and before moving on (``skills.TareSensor``,
+    ``docs/design.md`` 5.1); the action space stays ``(3,)``.
+
     * ``probe``: lift off, move by the offsets in the plane of the probed face (relative to
       the last contact, along and across the last measured edge), press along the face normal
       to 5 N and hold still for the gate's dwell: a pure press, measured when the edge
@@ -88,6 +92,8 @@ class HingeProbePrimitiveEnv(gym.Wrapper):
 
     ## Version History
 
+    * v2: wraps the v2 6-D env (the realistic F/T sensor); both primitives tare before their
+      press.
     * v1: initial release.
     """
 

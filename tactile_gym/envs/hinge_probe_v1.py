@@ -1,4 +1,8 @@
-"""HingeProbe v1: estimate the joint axis of a hinged object with a soft tactile fingertip.
+"""HingeProbe v2 and v1: estimate the joint axis of a hinged object with a soft tactile fingertip.
+
+One class serves both versions: v2 (the realistic F/T sensor, taring) and v1 (the ideal
+sensor, no tare) differ only in ``HingeProbeConfig.sensor_model`` and ``tare_action``, which
+``tactile_gym/__init__.py`` sets per id; the file keeps its v1 name.
 
 ``HingeProbeEnv`` joins parts that know nothing of each other (``docs/design.md`` 7.1): the
 controller (``controller.py``), the simulation (``tactile_gym.sim.ProbeScene``), the
@@ -46,7 +50,14 @@ from tactile_gym.envs.task import (
     TaskConfig,
 )
 from tactile_gym.estimation import LOSSES, AxisEstimate, axis_error
-from tactile_gym.sensing import FingertipGeometry, SensorConfig
+from tactile_gym.sensing import (
+    SENSOR_MODELS,
+    TARE_SAMPLES,
+    TOUCH_FORCE,
+    FingertipGeometry,
+    SensorConfig,
+    Tare,
+)
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
 from tactile_gym.sim.scene import FORCE_LIMIT
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
@@ -88,6 +99,11 @@ class HingeProbeConfig:
             starts, N.
         randomize: draw the object, joint angle and fingertip start at reset; when False
             every reset uses the nominal scenario.
+        sensor_model: the F/T sensor the ``sensor`` overrides apply to, from
+            ``SENSOR_MODELS``: ``"realistic"`` (offset, drift, the fingertip's weight) or
+            ``"ideal"`` (white noise only; the v1 ids').
+        tare_action: the v2 behaviour: tare at reset and on the action's seventh component
+            (the class docstring); False gives the v1 ids' 6-D action and raw reading.
         skin, sensor, object, gate, task, scenario: nested overrides (above).
     """
 
@@ -102,6 +118,8 @@ class HingeProbeConfig:
     max_rotation: float = float(np.deg2rad(3.0))
     force_limit: float = FORCE_LIMIT
     randomize: bool = True
+    sensor_model: str = "realistic"
+    tare_action: bool = True
     skin: dict = field(default_factory=dict)
     sensor: dict = field(default_factory=dict)
     object: dict = field(default_factory=dict)
@@ -131,6 +149,8 @@ class HingeProbeConfig:
         check_number("max_rotation", self.max_rotation, 0.0, 0.2, low_open=True)
         check_number("force_limit", self.force_limit, 0.5, 50.0)
         check_bool("randomize", self.randomize)
+        check_choice("sensor_model", self.sensor_model, SENSOR_MODELS)
+        check_bool("tare_action", self.tare_action)
         # Build every nested config once, so that a bad field fails here, at construction.
         self.skin_config()
         self.sensor_config()
@@ -153,7 +173,13 @@ class HingeProbeConfig:
         return build_config(SkinConfig, self.skin, "skin")
 
     def sensor_config(self) -> SensorConfig:
-        return build_config(SensorConfig, self.sensor, "sensor")
+        """``sensor_model``'s sensor with the ``sensor`` overrides (or ``sensor`` itself, a
+        ``SensorConfig``)."""
+        if isinstance(self.sensor, SensorConfig):
+            return self.sensor
+        build_config(SensorConfig, self.sensor, "sensor")  # unknown or bad fields fail here
+        changes = {k: tuple(v) if isinstance(v, list) else v for k, v in self.sensor.items()}
+        return SensorConfig.preset(self.sensor_model, **changes)
 
     def object_config(self, family: str) -> ObjectConfig:
         """The nominal object of a family with the ``object`` overrides."""
@@ -210,16 +236,26 @@ class HingeProbeEnv(gym.Env):
 
     ## Action Space
 
-    ``Box(-1, 1, (6,), float32)``, scaled by ``DeltaPoseController``:
+    ``Box(-1, 1, (7,), float32)`` (v1: ``(6,)``, no tare), scaled by ``DeltaPoseController``:
 
     | index | action                          | unit at 1                  | frame |
     |-------|---------------------------------|----------------------------|-------|
     | 0-2   | fingertip translation x, y, z   | ``max_translation`` (2 mm) | world |
     | 3-5   | rotation vector about the tip   | ``max_rotation`` (3 deg)   | world |
+    | 6     | tare the F/T sensor if > 0.5    | -                          | -     |
 
-    The rotation turns the fingertip about the centre of its hemisphere. The move is spread
-    over the control step; a guard stops the fingertip advancing while the force exceeds
-    ``force_limit``. (``HingeProbePrimitive-v1`` offers probing primitives instead.)
+    The rotation turns the fingertip about the centre of its hemisphere. The move is spread over
+    the control step; a guard stops the fingertip advancing while the force exceeds
+    ``force_limit``. (``HingeProbePrimitive-v2`` offers probing primitives instead.)
+
+    **Taring** (v2, ``docs/design.md`` 5.1). The env tares at reset (every episode starts in
+    free air) and when ``a[6] > 0.5``: after the move, the step's reading, the mean of
+    ``TARE_SAMPLES`` sensor samples, becomes the new zero, taken at the commanded pose. A tare
+    requested while the reading says touching (|f| >= ``TOUCH_FORCE`` on the current tare) is
+    refused (``info["tare_refused"]``); otherwise it is taken (``info["tared"]``). A tare during
+    a contact too light to read (|f| below the threshold) is taken, as a real robot would: its
+    force then stays in every reading as an offset, and the policy carries that error until it
+    tares again in free air. ``info["tare_age"]`` is the time since the last tare, s.
 
     ## Observation Space
 
@@ -229,8 +265,8 @@ class HingeProbeEnv(gym.Env):
 
     | key            | entry (index)     | meaning                                 | unit | frame  |
     |----------------|-------------------|-----------------------------------------|------|--------|
-    | wrench         | force (0-2)       | force on the fingertip                  | N    | sensor |
-    |                | moment (3-5)      | moment about the sensor origin          | N m  | sensor |
+    | wrench         | force (0-2)       | force on the fingertip, tared           | N    | sensor |
+    |                | moment (3-5)      | moment about the sensor origin, tared   | N m  | sensor |
     | fingertip_pose | position (0-2)    | sensor origin                           | m    | world  |
     |                | quaternion (3-6)  | orientation x, y, z, w                  | -    | world  |
     | contact        | touching (0)      | 1 if this reading gives a contact       | -    | -      |
@@ -252,12 +288,16 @@ class HingeProbeEnv(gym.Env):
     |                | measurements (3)  | measurements accepted (0..1e4)          | -    | -      |
     |                | time_left (4)     | fraction of the episode left (1..0)     | -    | -      |
 
-    Invalid entries (no contact, edge not observable) are zeros with their flag or std at
-    their "none" value. The estimate is always defined: before any measurement it is the prior
-    (the mean axis of the env's reset distribution, with its spread), so a policy without
-    memory sees how well the axis is known, how widely the link has been turned (the span of
-    the measured edges) and how much time is left. The uncertainties are the estimator's,
-    floored at what the model error allows (``docs/design.md`` 6.5, 7.5).
+    The wrench is the tared, gravity-compensated reading (``tactile_gym.sensing.Tare``: the
+    reading minus the last tare minus the change of the fingertip's weight since it); the raw
+    reading, with its offset, drift and weight, is not observed. (v1: the raw reading of the
+    ideal sensor, which has none of these.) Invalid entries (no contact, edge not observable)
+    are zeros with their flag or std at their "none" value. The estimate is always defined:
+    before any measurement it is the prior (the mean axis of the env's reset distribution, with
+    its spread), so a policy without memory sees how well the axis is known, how widely the link
+    has been turned (the span of the measured edges) and how much time is left. The
+    uncertainties are the estimator's, floored at what the model error allows
+    (``docs/design.md`` 6.5, 7.5).
 
     ## Rewards
 
@@ -307,7 +347,8 @@ class HingeProbeEnv(gym.Env):
 
     ``info`` also carries the reward terms, ``position_error`` (m), ``angle_error`` (rad),
     ``n_measurements``, ``new_measurements``, ``true_axis_point``, ``true_axis_direction``,
-    ``joint_angle`` (rad) and ``max_force`` (N). The ground truth in ``info`` is for
+    ``joint_angle`` (rad), ``max_force`` (N) and, in v2, ``tared``, ``tare_refused`` and
+    ``tare_age`` (s) (Action Space). The ground truth in ``info`` is for
     evaluation only; policies must not read it.
 
     ## Arguments
@@ -318,7 +359,7 @@ class HingeProbeEnv(gym.Env):
 
         from tactile_gym.presets import load_preset
 
-        gym.make("tactile_gym/HingeProbe-v1", **load_preset("env", "noise_x2"))
+        gym.make("tactile_gym/HingeProbe-v2", **load_preset("env", "noise_x2"))
 
     ``render_mode="rgb_array"`` frames are ``render_width`` x ``render_height`` pixels (640 x
     480) and show the observed force, the measurements and the estimated axis;
@@ -326,6 +367,10 @@ class HingeProbeEnv(gym.Env):
 
     ## Version History
 
+    * v2: a realistic F/T sensor by default (an offset drawn at reset, a slow drift, the
+      fingertip's weight; ``sensor_model="realistic"``), taring at reset and on a seventh
+      action component, and the observed wrench tared and gravity-compensated
+      (``docs/design.md`` 5.1). The v1 ids stay registered unchanged.
     * v1: the skin presses each node along the face it entered (the paper's edge signal from a
       pure press); a measurement gate judged from observable quantities only; the fingertip
       starts leaning in a random direction; the reward starts from the prior's error; the
@@ -387,7 +432,9 @@ class HingeProbeEnv(gym.Env):
         self.codec = OBSERVATION
         self.dict_observation_space = self.codec.dict_space
         self.observation_space = self.codec.space(cfg.observation_mode)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(6,), dtype=np.float32)
+        self.action_space = spaces.Box(
+            -1.0, 1.0, shape=(7 if cfg.tare_action else 6,), dtype=np.float32
+        )
         self._guard = StepGuard(self.action_space)
         self._scene: ProbeScene | None = None
 
@@ -420,9 +467,17 @@ class HingeProbeEnv(gym.Env):
             scenario.fingertip_position,
             scenario.fingertip_orientation,
             object_config=scenario.object_config,
+            rng=self.np_random,
         )
         self._steps = 0
-        self._wrench = scene.read_wrench(self.np_random)
+        self._tare = Tare.of(self._sensor_config)
+        self._tare_step = 0
+        # Every episode starts in free air (2-5 mm above the face, "Starting State"): the
+        # operator's tare there needs no knowledge of contact.
+        reading = scene.read_wrench(self.np_random, TARE_SAMPLES if cfg.tare_action else 1)
+        if cfg.tare_action:
+            self._tare.take(reading, scene.fingertip_rotation)
+        self._wrench = self._tare.compensate(reading, scene.fingertip_rotation)
         self.pipeline.reset(self._wrench, scene.fingertip_rotation, scene.fingertip_position)
         self._guard.begin()
         position_error, angle_error = self._true_errors()
@@ -436,10 +491,10 @@ class HingeProbeEnv(gym.Env):
             action, scene.fingertip_position, scene.fingertip_rotation
         )
         step_info = scene.control_step(position, rotation)
-        self._wrench = scene.read_wrench(self.np_random)
+        tare_info = self._read(rotation, self.config.tare_action and action[6] > 0.5)
         added = self.pipeline.step(self._wrench, scene.fingertip_rotation, scene.fingertip_position)
         self._steps += 1
-        facts = self._true_facts(step_info, action)
+        facts = self._true_facts(step_info, action[:6])
         reward, reward_info = self.task.get_reward(facts)
         reasons = self.task.get_termination(facts)
         terminated = any(reasons.values())
@@ -452,6 +507,7 @@ class HingeProbeEnv(gym.Env):
             "force_limited": bool(step_info.force_limited),
             "termination": reasons,
             "new_measurements": added,
+            **tare_info,
         }
         if self.render_mode == "human":
             self.render()
@@ -485,6 +541,30 @@ class HingeProbeEnv(gym.Env):
         if self._scene is not None:
             self._scene.close()
             self._scene = None
+
+    def _read(self, rotation: np.ndarray, tare: bool) -> dict[str, Any]:
+        """Read the sensor into ``self._wrench`` (tared, gravity-compensated at the commanded
+        ``rotation``), taring first if asked and the reading does not say touching.
+
+        Returns:
+            The tare's ``info`` entries (none without ``tare_action``).
+        """
+        # A tare's reading averages TARE_SAMPLES sensor samples over the step.
+        reading = self._scene.read_wrench(self.np_random, TARE_SAMPLES if tare else 1)
+        self._wrench = self._tare.compensate(reading, rotation)
+        if not self.config.tare_action:
+            return {}
+        refused = tare and float(np.linalg.norm(self._wrench[:3])) >= TOUCH_FORCE
+        if tare and not refused:
+            self._tare.take(reading, rotation)
+            self._tare_step = self._steps + 1
+            self._wrench = self._tare.compensate(reading, rotation)
+        period = self.config.time_step * self.config.substeps
+        return {
+            "tared": bool(tare and not refused),
+            "tare_refused": bool(refused),
+            "tare_age": (self._steps + 1 - self._tare_step) * period,
+        }
 
     # ------------------------------------------------------------------ accessors
     @property

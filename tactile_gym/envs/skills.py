@@ -20,6 +20,12 @@ The physics each skill relies on (``docs/design.md`` 4.1, 4.2, 7.6):
 * :class:`Drag` turns the link: pressing on the face near the edge and moving across the edge
   toward the face's interior, the sticking skin carries the link along.
 * :class:`Lift` ends a touch, so that the next press starts with an unloaded skin.
+* :class:`TareSensor` zeroes the F/T sensor in free air before each press, on the ids with a
+  tare action (v2): only right after a :class:`Lift` that moved the finger a clearance away
+  from the last touch, never while the reading says touching (``docs/design.md`` 5.1).
+
+Skills return 7-D actions (the 6-D motion and the tare request, ``ACTION_SIZE``); the
+executor hands the env as many components as its action space has.
 """
 
 from __future__ import annotations
@@ -39,6 +45,7 @@ from tactile_gym.sensing import RELEASE_FORCE, PressConfig, PressController
 from tactile_gym.spatial import quaternion_to_matrix
 
 __all__ = [
+    "ACTION_SIZE",
     "PRIMITIVES",
     "Drag",
     "Lift",
@@ -46,6 +53,7 @@ __all__ = [
     "PrimitiveExecutor",
     "PrimitiveScales",
     "Press",
+    "TareSensor",
     "ProbeFrame",
     "Skill",
     "TouchReading",
@@ -56,6 +64,8 @@ __all__ = [
 PRIMITIVES = ("probe", "turn")
 
 UP = np.array([0.0, 0.0, 1.0])
+#: A skill's action: the 6-D motion and the tare request (``HingeProbeEnv``'s Action Space).
+ACTION_SIZE = 7
 
 
 @dataclass(frozen=True)
@@ -154,9 +164,9 @@ class Skill:
         if move is None:
             return None
         self.steps += 1
-        action = np.zeros(6)
-        action[:3] = move / self.max_translation
-        return np.clip(action, -1.0, 1.0)
+        action = np.zeros(ACTION_SIZE)
+        action[:3] = np.clip(move / self.max_translation, -1.0, 1.0)
+        return action
 
     def _move(self, reading: TouchReading) -> np.ndarray | None:
         raise NotImplementedError
@@ -212,15 +222,42 @@ class Lift(Skill):
         self.clearance = float(clearance)
         self._free_travel = 0.0
 
+    @property
+    def cleared(self) -> bool:
+        """Whether the finger moved ``clearance`` away after the reading let go."""
+        return self._free_travel >= self.clearance
+
     def _move(self, reading: TouchReading) -> np.ndarray | None:
         if reading.magnitude < RELEASE_FORCE:
-            if self._free_travel >= self.clearance:
+            if self.cleared:
                 return None
             step = min(self.max_translation, self.clearance - self._free_travel)
             self._free_travel += step
             return self.frame.normal * step
         self._free_travel = 0.0
         return self.frame.normal * self.max_translation
+
+
+class TareSensor(Skill):
+    """Hold still for one step and ask the env to tare, if the lift before it ended clear.
+
+    Args:
+        max_translation: the env's translation for an action of 1, m.
+        frame: the shared probing frame.
+        lift: the :class:`Lift` that ran just before; no tare unless it cleared.
+    """
+
+    def __init__(self, max_translation: float, frame: ProbeFrame, lift: Lift) -> None:
+        super().__init__(max_translation, frame, budget=1)
+        self.lift = lift
+
+    def act(self, reading: TouchReading) -> np.ndarray | None:
+        if self.steps or not self.lift.cleared or reading.magnitude >= RELEASE_FORCE:
+            return None
+        self.steps += 1
+        action = np.zeros(ACTION_SIZE)
+        action[6] = 1.0
+        return action
 
 
 class Move(Skill):
@@ -302,6 +339,7 @@ def primitive_skills(
     max_translation: float,
     dwell: int,
     scales: PrimitiveScales,
+    tare: bool = False,
 ) -> tuple[str, list[Skill]]:
     """The primitive a normalised action (3,) asks for, as the skills that carry it out.
 
@@ -310,7 +348,8 @@ def primitive_skills(
     ``dwell`` steps. ``action[0] >= 0``: ``turn`` -- lift, move by ``action[2]`` along the
     edge, press to 5.5 N and drag ``action[1]`` across the edge (positive toward the face's
     interior). Before the first edge is known there are no directions to move in: ``probe``
-    presses where it is, ``turn`` only presses.
+    presses where it is, ``turn`` only presses. With ``tare`` both tare the sensor right
+    after the lift, before moving on (:class:`TareSensor`).
     """
     name = PRIMITIVES[int(action[0] >= 0.0)]
     offset = np.zeros(3)
@@ -318,7 +357,10 @@ def primitive_skills(
         offset = action[2] * scales.probe_along * frame.edge
         if name == "probe":
             offset = offset - action[1] * scales.probe_across * frame.interior
-    skills: list[Skill] = [Lift(max_translation, frame)]
+    lift = Lift(max_translation, frame)
+    skills: list[Skill] = [lift]
+    if tare:
+        skills.append(TareSensor(max_translation, frame, lift))
     if np.linalg.norm(offset) > 0.0:
         skills.append(Move(max_translation, frame, offset))
     if name == "probe":
@@ -343,6 +385,7 @@ class PrimitiveExecutor:
         dwell: still steps of a probe (the gate's dwell plus one).
         max_steps: the episode's control steps, to express a primitive's cost.
         scales: what a primitive action of 1 means.
+        tare: the env has a tare action: tare before each press, act with 7-D actions.
     """
 
     def __init__(
@@ -351,11 +394,14 @@ class PrimitiveExecutor:
         dwell: int,
         max_steps: int,
         scales: PrimitiveScales = PrimitiveScales(),  # noqa: B008 - frozen dataclass
+        tare: bool = False,
     ) -> None:
         self.max_translation = float(max_translation)
         self.dwell = int(dwell)
         self.max_steps = int(max_steps)
         self.scales = scales
+        self.tare = bool(tare)
+        self._size = ACTION_SIZE if self.tare else 6
         self.reset()
 
     @classmethod
@@ -365,9 +411,16 @@ class PrimitiveExecutor:
         scales: PrimitiveScales = PrimitiveScales(),  # noqa: B008 - frozen dataclass
     ) -> PrimitiveExecutor:
         """The executor of a ``HingeProbeEnv`` (``env.unwrapped``): its translation scale and
-        budget, and probes held one step beyond the gate's dwell."""
+        budget, probes held one step beyond the gate's dwell, and a tare before each press
+        where the env has a tare action."""
         config = env.config
-        return cls(config.max_translation, env.gate.config.dwell + 1, config.max_steps, scales)
+        return cls(
+            config.max_translation,
+            env.gate.config.dwell + 1,
+            config.max_steps,
+            scales,
+            config.tare_action,
+        )
 
     def reset(self) -> None:
         """Forget the probing so far (call at every episode start)."""
@@ -384,6 +437,7 @@ class PrimitiveExecutor:
             self.max_translation,
             self.dwell,
             self.scales,
+            self.tare,
         )
         self._steps = 0
         self._count = ProgressObs.read(obs).measurements
@@ -398,13 +452,13 @@ class PrimitiveExecutor:
             action = self._skills[0].act(reading)
             if action is not None:
                 self._steps += 1
-                return action
+                return action[: self._size]
             self._skills.pop(0)
         if not self._steps:
             # Nothing to do (e.g. a turn before any edge is known): one still step, so that
             # every primitive costs time.
             self._steps = 1
-            return np.zeros(6)
+            return np.zeros(self._size)
         self.finish(obs)
         return None
 

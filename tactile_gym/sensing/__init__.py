@@ -16,24 +16,40 @@ from tactile_gym.sensing.probing import (
     TouchSensor,
     run_press,
 )
-from tactile_gym.sensing.sensor import RELEASE_FORCE, TOUCH_FORCE, SensorConfig
+from tactile_gym.sensing.sensor import (
+    RELEASE_FORCE,
+    SENSOR_MODELS,
+    TARE_SAMPLES,
+    TOUCH_FORCE,
+    SensorConfig,
+    SensorErrors,
+    Tare,
+    fingertip_mass_properties,
+    gravity_wrench,
+)
 
 __all__ = [
     "CONTACT_MODELS",
     "CONTACT_SHAPES",
     "EDGE_STD_UNOBSERVABLE",
     "RELEASE_FORCE",
+    "SENSOR_MODELS",
+    "TARE_SAMPLES",
     "TOUCH_FORCE",
     "ContactEstimate",
     "FingertipGeometry",
     "PressConfig",
     "PressController",
     "SensorConfig",
+    "SensorErrors",
     "SurfaceSamples",
+    "Tare",
     "Touch",
     "TouchSensor",
     "edge_from_trace",
     "estimate_contact",
+    "fingertip_mass_properties",
+    "gravity_wrench",
     "indentation_depth",
     "run_press",
 ]

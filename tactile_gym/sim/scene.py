@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
-from tactile_gym.sensing import FingertipGeometry, SensorConfig
+from tactile_gym.sensing import FingertipGeometry, SensorConfig, SensorErrors
 from tactile_gym.sim import _pose_kernels
 from tactile_gym.sim.camera import Camera, frame_box
 from tactile_gym.sim.config import ObjectConfig, SkinConfig
@@ -119,7 +119,8 @@ class ProbeScene:
     Args:
         object_config: the hinged object.
         skin_config: skin stiffness, friction, node spacing.
-        sensor_config: F/T noise and bias.
+        sensor_config: the F/T sensor (default ``SensorConfig.ideal()``: white noise only;
+            the env and the Table I protocol choose theirs).
         geometry: fingertip shape.
         time_step: physics step, s.
         substeps: physics steps per ``control_step``.
@@ -133,7 +134,7 @@ class ProbeScene:
         self,
         object_config: ObjectConfig,
         skin_config: SkinConfig = SkinConfig(),  # noqa: B008 - frozen dataclasses
-        sensor_config: SensorConfig = SensorConfig(),  # noqa: B008
+        sensor_config: SensorConfig = SensorConfig.ideal(),  # noqa: B008
         geometry: FingertipGeometry = FingertipGeometry(),  # noqa: B008
         *,
         time_step: float = TIME_STEP,
@@ -160,8 +161,7 @@ class ProbeScene:
         self._object = HingedObject(self._world, object_config, rest)
         self._table = Plane(0.0, body_id=self._world.table_id)
         self._skin = SoftSkin(geometry, skin_config)
-        self._force_bias = np.asarray(sensor_config.force_bias, dtype=float)
-        self._moment_bias = np.asarray(sensor_config.moment_bias, dtype=float)
+        self._sensor = SensorErrors(sensor_config, time_step * substeps)
         # Fingertip pose, sensor to world: rotation (rows 0-2), then position (row 3).
         self._pose = np.zeros((4, 3))
         self._pose[:3] = np.eye(3)
@@ -217,6 +217,7 @@ class ProbeScene:
         fingertip_position,
         fingertip_orientation,
         object_config: ObjectConfig | None = None,
+        rng: np.random.Generator | None = None,
     ) -> None:
         """Set the joint angle and teleport the fingertip; clears the skin state.
 
@@ -226,6 +227,8 @@ class ProbeScene:
             fingertip_orientation: (3, 3) rotation or (4,) quaternion x y z w, sensor to
                 world.
             object_config: rebuild the object from this config if it differs.
+            rng: a new episode of the sensor: draw its offset with it (None: keep the state,
+                as when the hand moves the object mid-trial).
         """
         self._check_open()
         pos = _point(fingertip_position, "fingertip_position")
@@ -239,6 +242,8 @@ class ProbeScene:
         self._pose[:3] = rot
         self._pose[3] = pos
         self._skin.reset()
+        if rng is not None:
+            self._sensor.reset(rng)
         prims = self._prims
         sel = self._skin.select(prims, rot, pos, 0.0)
         contact = self._skin.evaluate(sel, prims, rot, pos, self.time_step)
@@ -386,22 +391,18 @@ class ProbeScene:
 
     # --- sensing -------------------------------------------------------------------------
 
-    def read_wrench(self, rng: np.random.Generator) -> np.ndarray:
-        """Noisy F/T reading [fx, fy, fz, mx, my, mz], sensor frame, N and N m.
+    def read_wrench(self, rng: np.random.Generator, samples: int = 1) -> np.ndarray:
+        """F/T reading [fx, fy, fz, mx, my, mz], sensor frame, N and N m: the contact wrench
+        plus the fingertip's weight, bias, offset, drift and noise (``SensorErrors``; one
+        reading per control step).
 
         Args:
             rng: the only source of randomness (the env's ``np_random``).
+            samples: sensor samples averaged within the control period (a tare's).
         """
         if not isinstance(rng, np.random.Generator):
             raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        cfg = self._sensor_config
-        noise = rng.standard_normal(6)
-        noise[:3] *= cfg.force_noise_std
-        noise[3:] *= cfg.moment_noise_std
-        out = self.true_wrench + noise
-        out[:3] += self._force_bias
-        out[3:] += self._moment_bias
-        return out
+        return self._sensor.read(self.true_wrench, self._pose[:3], rng, samples)
 
     @property
     def true_wrench(self) -> np.ndarray:
