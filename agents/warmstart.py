@@ -177,7 +177,7 @@ def behaviour_clone(
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
-            total += loss.item() * len(index)
+            total += float(loss.detach()) * len(index)
         losses.append(total / len(actions))
     policy.set_training_mode(False)
     return losses
@@ -202,7 +202,7 @@ def fit_values(
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
-            total += loss.item() * len(index)
+            total += float(loss.detach()) * len(index)
         losses.append(total / len(returns))
     policy.set_training_mode(False)
     return losses
