@@ -210,7 +210,7 @@ def fit_values(
 
 def warm_start(model, demos: Demos, recipe: WarmStart, seed: int = 0) -> dict[str, Any]:
     """Run the recipe on a PPO ``model`` (module docstring) and return what it measured:
-    samples, the first and last epochs' losses.
+    samples, episodes, the demonstrations' seed range, the first and last epochs' losses.
 
     Raises:
         ValueError: a model that is not an on-policy actor-critic (PPO, A2C), or
@@ -253,6 +253,7 @@ def warm_start(model, demos: Demos, recipe: WarmStart, seed: int = 0) -> dict[st
     return {
         "samples": len(demos),
         "episodes": len(demos.seeds),
+        "seeds": [int(demos.seeds.min()), int(demos.seeds.max())],
         "bc_loss": [bc[0], bc[-1]] if bc else [],
         "value_loss": [value[0], value[-1]] if value else [],
     }

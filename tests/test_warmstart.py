@@ -100,6 +100,7 @@ def test_training_with_a_warm_start_records_it(tmp_path):
     assert record["seeds"]["demonstrations"] == [100_000, 100_001]
     assert record["seeds"]["selection"] == [200_000, 200_001]
     stats = yaml.safe_load((run / "warm_start.yml").read_text())
-    assert stats["episodes"] == 2 and (run / "demos.npz").exists()
+    assert stats["episodes"] == 2 and stats["seeds"] == [100_000, 100_001]
+    assert (run / "demos.npz").exists()
     with pytest.raises(ValueError, match="ppo only"):
         train.train("sac", ENV_ID, warm_start={"demos": 2}, log_folder=tmp_path)
