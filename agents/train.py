@@ -555,7 +555,7 @@ def progress_lines(total_steps: int, interval: float = 30.0):
             if now - self.last >= interval or done >= total_steps:
                 self.last = now
                 rate = (done - self.first) / max(now - self.start, 1e-9)
-                eta = (total_steps - done) / rate if rate > 0 else math.inf
+                eta = max(total_steps - done, 0) / rate if rate > 0 else math.inf
                 print(
                     f"{done}/{total_steps} env steps ({100 * done / total_steps:.0f} %), "
                     f"{clock(now - self.start)} elapsed, ETA {clock(eta)}",
