@@ -680,7 +680,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     print(f"{data['env_id']}, {args.episodes} episodes, seeds {args.seed}..{last}")
     print(markdown_table(summaries))
     if REFERENCE in data["episodes_detail"] and len(data["episodes_detail"]) > 1:
-        print(paired_table(data["episodes_detail"]))
+        print(f"\n{paired_table(data['episodes_detail'])}")
     print(f"wrote {Path(args.out) / 'evaluation.json'}")
     return summaries
 
