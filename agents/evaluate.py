@@ -14,7 +14,9 @@ A policy is ``random``, ``scripted`` or the path of a stable-baselines3 model sa
 every episode depends on its seed alone: ``--workers`` spreads episodes over Ray workers with
 the same results as a serial run. The script prints a markdown table and writes
 ``evaluation.json`` (strict JSON: NaN is written as ``null``) and ``error_vs_step.png`` to
-``--out``.
+``--out``. The seeds default to the test range, which no training or selection step uses
+(``agents.seeds``); with ``scripted`` among the policies the script also prints each other
+policy's paired difference from it with a bootstrap interval (``agents.compare``).
 
 A model runs only on the id it was trained on (a primitive model also on its 6-D id, whose
 steps its primitives then drive) unless ``--force``; without a run config beside it, its
@@ -48,8 +50,10 @@ from .cli import (
     progress_bar,
     run_main,
 )
+from .compare import REFERENCE, paired_table
 from .plots import plot_errors
 from .scripted import scripted_policy
+from .seeds import TEST_SEED
 from .train import DEFAULT_ENV_ID, algorithm_class, make_env, torch_threads, vecnormalize_path
 
 #: Position error reported while there is no estimate, m (the task's E_max).
@@ -553,7 +557,7 @@ def evaluate(
     policies: list[str],
     env_id: str | None = None,
     episodes: int = 20,
-    seed: int = 1000,
+    seed: int = TEST_SEED,
     out: str | Path = "results/evaluation",
     env_kwargs: dict | None = None,
     plot: bool = True,
@@ -645,7 +649,11 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     )
     parser.add_argument("--episodes", type=int, default=20, help="episodes per policy")
     parser.add_argument(
-        "--seed", type=int, default=1000, help="seed of the first episode (then +1 each)"
+        "--seed",
+        type=int,
+        default=TEST_SEED,
+        help="seed of the first episode (then +1 each); the default starts the test range, "
+        "which no training or model selection uses (agents.seeds)",
     )
     parser.add_argument(
         "--out", default="results/evaluation", help="folder of evaluation.json and the plot"
@@ -677,6 +685,8 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     last = args.seed + args.episodes - 1
     print(f"{data['env_id']}, {args.episodes} episodes, seeds {args.seed}..{last}")
     print(markdown_table(summaries))
+    if REFERENCE in data["episodes_detail"] and len(data["episodes_detail"]) > 1:
+        print(f"\n{paired_table(data['episodes_detail'])}")
     print(f"wrote {Path(args.out) / 'evaluation.json'}")
     return summaries
 

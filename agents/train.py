@@ -56,6 +56,7 @@ from .cli import (
     require,
     run_main,
 )
+from .seeds import DEMO_SEED, SELECTION_SEED, seed_ranges
 
 ALGOS = ("ppo", "sac")
 VEC_ENVS = ("auto", "vector", "dummy", "subproc")
@@ -289,21 +290,6 @@ def algo_kwargs(config: Mapping[str, Any]) -> dict:
     return kwargs
 
 
-def _save_vecnormalize_on_best(path: Path):
-    """A callback for ``EvalCallback(callback_on_new_best=...)``: saves the training
-    statistics with the new best model (the ones its evaluation just used)."""
-    from stable_baselines3.common.callbacks import BaseCallback
-
-    class SaveVecNormalize(BaseCallback):
-        def _on_step(self) -> bool:
-            vec_normalize = self.model.get_vec_normalize_env()
-            if vec_normalize is not None:
-                vec_normalize.save(str(path))
-            return True
-
-    return SaveVecNormalize()
-
-
 def train(
     algo: str = "ppo",
     env_id: str = DEFAULT_ENV_ID,
@@ -315,7 +301,7 @@ def train(
     hyperparams: Mapping[str, Any] | None = None,
     env_kwargs: Mapping[str, Any] | None = None,
     eval_freq: int = 10_000,
-    eval_episodes: int = 5,
+    eval_episodes: int = 20,
     checkpoint_freq: int = 50_000,
     progress_bar: bool = False,
     vec_env: str = "auto",
@@ -325,6 +311,7 @@ def train(
     run_dir: str | Path | None = None,
     command: str | None = None,
     resume: bool = False,
+    warm_start: Mapping[str, Any] | None = None,
 ) -> Path:
     """Train one agent and return its run folder.
 
@@ -341,7 +328,8 @@ def train(
         eval_freq: env steps (summed over envs) between evaluations, capped at
             ``n_timesteps`` so that every run evaluates (and saves a best model) at least
             once; 0 disables them.
-        eval_episodes: episodes per evaluation.
+        eval_episodes: episodes per evaluation, the same every time: seeds
+            ``SELECTION_SEED ..`` (``agents.seeds``, ``agents.selection``).
         checkpoint_freq: env steps (summed over envs) between checkpoints; 0 disables them.
         progress_bar: show a progress bar (needs tqdm and rich); without it, a line every
             30 s (:func:`progress_lines`).
@@ -356,11 +344,14 @@ def train(
         command: the command line to record; defaults to ``sys.argv``.
         resume: with a ``run_dir`` that holds an interrupted run, continue it from its
             latest checkpoint (:func:`latest_checkpoint`) instead of refusing.
+        warm_start: keys over the config's ``warm_start`` recipe for the id
+            (``agents.warmstart.WarmStart``): with demonstrations, PPO starts from a policy
+            cloned from them and a critic fitted to their returns.
 
     A run that fails leaves no folder if it made no model, else a ``failed.txt`` in it.
     """
     require("stable_baselines3", "train")
-    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
+    from stable_baselines3.common.callbacks import CheckpointCallback
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import (
         DummyVecEnv,
@@ -369,7 +360,9 @@ def train(
         VecNormalize,
     )
 
+    from .selection import FixedSeedVecEnv, continue_evaluations, fixed_seed_evaluation
     from .vec_env import make_sb3_vec_env
+    from .warmstart import load_recipe, run_recipe
 
     check_env_id("env_id", env_id)
     if vec_env not in VEC_ENVS:
@@ -382,6 +375,9 @@ def train(
         raise ValueError(f"n_cpus must be >= 1, got {n_cpus}")
     resolved_vec_env = choose_vec_env(n_envs, n_cpus) if vec_env == "auto" else vec_env
     n_threads = int(n_threads or DEFAULT_TORCH_THREADS)
+    recipe = load_recipe(preset_path("train", config_path or algo), env_id, warm_start)
+    if recipe.enabled and algo != "ppo":
+        raise ValueError(f"warm_start runs with ppo only, got algo {algo!r}")
 
     run_env_kwargs = dict(config.get("env_kwargs") or {})
     factory = functools.partial(make_env, env_id, **run_env_kwargs)
@@ -398,7 +394,8 @@ def train(
         return make_vec_env(factory, n_envs=n, seed=first_seed, vec_env_cls=vec_cls)
 
     # The envs first: a bad env keyword fails here, before a run folder exists.
-    eval_env = make_envs(1, seed + 10_000)
+    selection_seeds = list(range(SELECTION_SEED, SELECTION_SEED + max(eval_episodes, 1)))
+    eval_env = FixedSeedVecEnv(make_envs(1, SELECTION_SEED), selection_seeds)
     env = make_envs(n_envs, seed)
 
     checkpoint = None
@@ -433,7 +430,15 @@ def train(
         },
         "resources": {"n_cpus": n_cpus, "vec_env": resolved_vec_env, "torch_threads": n_threads},
         "hyperparameters": config,
+        "warm_start": recipe.as_dict(),
+        "seeds": {
+            **seed_ranges(),
+            "training": [seed, seed + n_envs - 1],
+            "selection": [selection_seeds[0], selection_seeds[-1]],
+        },
     }
+    if recipe.enabled and isinstance(recipe.demos, int):
+        record["seeds"]["demonstrations"] = [DEMO_SEED, DEMO_SEED + recipe.demos - 1]
     if checkpoint is not None:
         record["resumed_from"] = checkpoint.relative_to(run_dir).as_posix()
         (run_dir / "failed.txt").unlink(missing_ok=True)
@@ -453,21 +458,15 @@ def train(
 
         callbacks = [] if progress_bar else [progress_lines(total_steps)]
         if eval_freq > 0:
-            evaluation = EvalCallback(
+            evaluation = fixed_seed_evaluation(
                 eval_env,
-                n_eval_episodes=eval_episodes,
-                eval_freq=max(min(eval_freq, total_steps) // n_envs, 1),
-                best_model_save_path=str(run_dir),
-                log_path=str(run_dir / "eval"),
-                deterministic=True,
-                callback_on_new_best=_save_vecnormalize_on_best(
-                    vecnormalize_path(run_dir / "best_model.zip")
-                )
-                if normalize
-                else None,
+                eval_episodes,
+                max(min(eval_freq, total_steps) // n_envs, 1),
+                run_dir,
+                vecnormalize_path(run_dir / "best_model.zip") if normalize else None,
             )
             if checkpoint is not None:
-                _continue_evaluations(evaluation, run_dir / "eval" / "evaluations.npz")
+                continue_evaluations(evaluation, run_dir / "eval" / "evaluations.npz")
             callbacks.append(evaluation)
         if checkpoint_freq > 0:
             callbacks.append(
@@ -483,6 +482,8 @@ def train(
                 print(f"resuming from {checkpoint} at {model.num_timesteps} env steps", flush=True)
             else:
                 model = _construct(algo, config, env, seed, device, run_dir)
+                if recipe.enabled:
+                    run_recipe(model, recipe, env_id, run_env_kwargs, seed, run_dir)
             model.learn(
                 total_timesteps=total_steps - model.num_timesteps,
                 callback=callbacks,
@@ -533,21 +534,6 @@ def latest_checkpoint(run_dir: str | Path) -> Path | None:
     return max(found)[1] if found else None
 
 
-def _continue_evaluations(callback, log: Path) -> None:
-    """Give a resumed run's ``EvalCallback`` the evaluations made before the interruption,
-    so that its log and its best model carry on rather than start again."""
-    import numpy as np
-
-    if not log.exists():
-        return
-    with np.load(log) as data:
-        callback.evaluations_timesteps = data["timesteps"].tolist()
-        callback.evaluations_results = data["results"].tolist()
-        callback.evaluations_length = data["ep_lengths"].tolist()
-    if callback.evaluations_results:
-        callback.best_mean_reward = float(np.max(np.mean(callback.evaluations_results, axis=1)))
-
-
 def _mark_failed(run_dir: Path, created: bool, error: BaseException) -> None:
     """A run folder this run made and that holds no model is removed; any other gets
     ``failed.txt``, saying why the run stopped."""
@@ -576,7 +562,7 @@ def progress_lines(total_steps: int, interval: float = 30.0):
             if now - self.last >= interval or done >= total_steps:
                 self.last = now
                 rate = (done - self.first) / max(now - self.start, 1e-9)
-                eta = (total_steps - done) / rate if rate > 0 else math.inf
+                eta = max(total_steps - done, 0) / rate if rate > 0 else math.inf
                 print(
                     f"{done}/{total_steps} env steps ({100 * done / total_steps:.0f} %), "
                     f"{clock(now - self.start)} elapsed, ETA {clock(eta)}",
@@ -646,7 +632,19 @@ def main(argv: list[str] | None = None) -> Path:
         help="env steps between periodic evaluations (they pick best_model.zip); 0: none",
     )
     parser.add_argument(
-        "--eval-episodes", type=int, default=5, help="episodes per periodic evaluation"
+        "--eval-episodes",
+        type=int,
+        default=20,
+        help="episodes per periodic evaluation, the same seeds every time (agents.seeds)",
+    )
+    parser.add_argument(
+        "--warm-start",
+        nargs="+",
+        action=KeyValue,
+        default={},
+        metavar="KEY:VALUE",
+        help="keys over the config's warm_start recipe, e.g. demos:80 bc_epochs:50 "
+        f"(demos:0 turns it off; agents.warmstart.WarmStart); {KEY_VALUE_HELP}",
     )
     parser.add_argument(
         "--checkpoint-freq", type=int, default=50_000, help="env steps between checkpoints; 0: none"
@@ -693,6 +691,7 @@ def main(argv: list[str] | None = None) -> Path:
         n_cpus=args.n_cpus,
         n_threads=args.torch_threads,
         device=args.device,
+        warm_start=args.warm_start,
         command=shlex.join(["python", "-m", parser.prog.split()[-1], *(argv or sys.argv[1:])]),
     )
     print(f"run saved in {run_dir}")

@@ -313,8 +313,8 @@ def test_evaluation_writes_json(tmp_path):
 
 
 def test_evaluation_json_is_strict(tmp_path):
-    # Random actions never come within 5 mm: the mean step to 5 mm is undefined.
-    summaries = evaluate.evaluate(["random"], episodes=1, out=tmp_path, plot=False)
+    # On this seed random actions never come within 5 mm: the mean step to 5 mm is undefined.
+    summaries = evaluate.evaluate(["random"], episodes=1, seed=1000, out=tmp_path, plot=False)
     assert np.isnan(summaries["random"]["steps_to_5mm_mean"])
 
     def reject(constant):
@@ -411,3 +411,66 @@ def test_a_failed_run_leaves_no_empty_folder(tmp_path):
             config_path=_tiny_config(tmp_path, "ppo"),
         )  # fmt: skip
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ppo.yml"]  # the config alone
+
+
+@pytest.mark.parametrize("kind", ["dummy", "vector"])
+def test_fixed_seed_evaluation_plays_the_same_episodes_every_time(kind):
+    """Every reset starts the seed list over and each ended episode is followed by the next
+    seed's: the selection episodes are those of gym.make with the same seeds."""
+    from stable_baselines3.common.env_util import make_vec_env
+
+    from agents.selection import FixedSeedVecEnv
+    from agents.vec_env import make_sb3_vec_env
+
+    env_id, kwargs, seeds = "tactile_gym/HingeProbePrimitive-v1", {"max_primitives": 2}, [5, 9, 2]
+    if kind == "vector":
+        inner = make_sb3_vec_env(env_id, 1, **kwargs)
+    else:
+        inner = make_vec_env(env_id, n_envs=1, seed=77, env_kwargs=kwargs)
+    venv = FixedSeedVecEnv(inner, seeds)
+    action = np.array([[-1.0, 0.3, 0.0]], dtype=np.float32)
+
+    def evaluation(episodes: int) -> list[np.ndarray]:
+        starts = [venv.reset()["contact"][0]]
+        while len(starts) <= episodes:
+            obs, _, dones, _ = venv.step(action)
+            if dones[0]:
+                starts.append(obs["contact"][0])
+        return starts[:episodes]
+
+    first = evaluation(3)
+    venv.step(action)  # a step between evaluations, as training does
+    np.testing.assert_array_equal(np.stack(evaluation(3)), np.stack(first))
+    single = gym.make(env_id, **kwargs)
+    expected = [single.reset(seed=s)[0]["contact"] for s in seeds]
+    np.testing.assert_allclose(np.stack(first), np.stack(expected), rtol=0, atol=1e-6)
+    venv.close()
+    with pytest.raises(ValueError, match="1 env"):
+        FixedSeedVecEnv(make_vec_env(env_id, n_envs=2, env_kwargs=kwargs), seeds)
+
+
+def test_paired_bootstrap_interval_covers_the_true_difference():
+    from agents.compare import paired_difference
+
+    rng = np.random.default_rng(3)
+    true_difference, covered, runs = -0.4, 0, 200
+    for k in range(runs):
+        reference = rng.lognormal(0.5, 0.8, size=50)  # episode difficulty, shared by both
+        values = reference + true_difference + rng.normal(0.0, 0.5, size=50)
+        d = paired_difference(values, reference, samples=2000, seed=k)
+        covered += d.low <= true_difference <= d.high
+        assert d.low <= d.mean <= d.high
+    assert 0.9 <= covered / runs <= 0.99
+    with pytest.raises(ValueError, match="equal-length"):
+        paired_difference([1.0, 2.0], [1.0])
+
+
+def test_evaluation_prints_the_paired_comparison_with_scripted(tmp_path, capsys):
+    evaluate.main(
+        ["--env", "tactile_gym/HingeProbePrimitive-v1", "--policies", "random", "scripted",
+         "--episodes", "2", "--env-kwargs", "max_primitives:3", "--out", str(tmp_path),
+         "--no-plot"]
+    )  # fmt: skip
+    out = capsys.readouterr().out
+    assert "seeds 1000000..1000001" in out
+    assert "| random | 2 |" in out and "95 % CI" in out

@@ -76,3 +76,26 @@ def test_success_needs_both_errors_small():
     assert task.is_success(0.0019, np.deg2rad(1.9))
     assert not task.is_success(0.0021, 0.0)
     assert not task.is_success(0.0, np.deg2rad(2.1))
+
+
+@pytest.mark.parametrize("reason", TERMINATION_REASONS)
+def test_a_failing_step_pays_the_termination_penalty(reason):
+    kw = {
+        "left_workspace": {"hinge_distance": 0.26},
+        "shell_contact": {"shell_contact": True},
+        "overloaded": {"max_force": 31.0},
+    }[reason]
+    task = AxisEstimationTask(TaskConfig(termination_penalty=0.5))
+    task.initialize_episode(0.01, 0.0)
+    reward, terms = task.get_reward(facts(**kw))
+    assert terms["reward_termination"] == -0.5
+    assert reward == pytest.approx(sum(terms.values()))
+    assert task.get_reward(facts())[1]["reward_termination"] == 0.0
+
+
+def test_the_termination_penalty_is_off_by_default_and_validated():
+    task = AxisEstimationTask(TaskConfig())
+    task.initialize_episode(0.01, 0.0)
+    assert task.get_reward(facts(shell_contact=True))[1]["reward_termination"] == 0.0
+    with pytest.raises(ValueError, match="termination_penalty"):
+        TaskConfig(termination_penalty=-0.1)

@@ -12,7 +12,9 @@ estimate at reset. The env's estimate at reset is its prior: the nominal layout 
 of the reset distribution (``tactile_gym.estimation.AxisPrior``), what a user knows before
 touching anything. So the return telescopes to ``(E_0 - E_T) / E_scale``, the error the agent
 removed from what it knew at the start: an early, poorly supported estimate does not pay
-unless it is better than the prior, and random actions earn about nothing.
+unless it is better than the prior, and random actions earn about nothing. A step that ends
+the episode as a failure (``TERMINATION_REASONS``) also pays ``termination_penalty``: without it
+a failure only forfeits the error still to be removed, which early in an episode is little.
 """
 
 from __future__ import annotations
@@ -26,7 +28,12 @@ from tactile_gym.validation import check_number
 __all__ = ["AxisEstimationTask", "REWARD_TERMS", "StepFacts", "TaskConfig", "TERMINATION_REASONS"]
 
 #: The terms of a step's reward, as named in ``info``; they sum to the reward.
-REWARD_TERMS = ("reward_error_reduction", "reward_force_penalty", "reward_action_cost")
+REWARD_TERMS = (
+    "reward_error_reduction",
+    "reward_force_penalty",
+    "reward_action_cost",
+    "reward_termination",
+)
 
 #: Why an episode can end as a failure, in the order they are checked.
 TERMINATION_REASONS = ("left_workspace", "shell_contact", "overloaded")
@@ -47,6 +54,8 @@ class TaskConfig:
         hard_force_limit: force that ends the episode as a failure, N.
         workspace_radius: the episode fails when the sensor origin is further than this from
             the hinge pin, m.
+        termination_penalty: reward lost by the step that ends the episode as a failure
+            (``TERMINATION_REASONS``), in units of reward (1 = ``error_scale`` of error).
     """
 
     error_angle_scale: float = 0.05
@@ -58,6 +67,7 @@ class TaskConfig:
     success_angle: float = float(np.deg2rad(2.0))
     hard_force_limit: float = 30.0
     workspace_radius: float = 0.25
+    termination_penalty: float = 0.0
 
     def __post_init__(self) -> None:
         check_number("task.error_angle_scale", self.error_angle_scale, 0.0, 1.0)
@@ -69,6 +79,7 @@ class TaskConfig:
         check_number("task.success_angle", self.success_angle, 0.0, np.pi / 2, low_open=True)
         check_number("task.hard_force_limit", self.hard_force_limit, 1.0, 200.0)
         check_number("task.workspace_radius", self.workspace_radius, 0.05, 1.0)
+        check_number("task.termination_penalty", self.termination_penalty, 0.0, 100.0)
 
 
 @dataclass(frozen=True)
@@ -113,7 +124,8 @@ class AxisEstimationTask:
         self._previous_error = self.combined_error(position_error, angle_error)
 
     def get_reward(self, facts: StepFacts) -> tuple[float, dict[str, float]]:
-        """Reward for one step and its terms, which sum to the reward."""
+        """Reward for one step and its terms, which sum to the reward; a step that fails
+        (:meth:`get_termination`) pays the termination penalty."""
         cfg = self.config
         error = self.combined_error(facts.position_error, facts.angle_error)
         error_reduction = (self._previous_error - error) / cfg.error_scale
@@ -124,6 +136,7 @@ class AxisEstimationTask:
             error_reduction,
             -cfg.force_penalty * excess,
             -cfg.action_cost * (action @ action),
+            -cfg.termination_penalty * any(self.get_termination(facts).values()),
         )
         terms = {name: float(value) for name, value in zip(REWARD_TERMS, values)}
         return float(sum(terms.values())), terms

@@ -1,0 +1,302 @@
+"""A warm start for PPO from demonstrations: behaviour cloning, then the value function
+pre-fitted to the demonstrations' returns (``docs/design.md``, Learning).
+
+:func:`warm_start` takes a freshly built PPO model and ``agents.demos`` demonstrations and
+
+1. sets the ``VecNormalize`` statistics from the demonstrations: the observation mean and
+   variance of their observations, and the return variance from their running discounted
+   rewards, exactly as ``VecNormalize`` would have accumulated them while stepping;
+2. clones the policy: maximises the log-likelihood of the demonstrated actions under the
+   policy's Gaussian (``ActorCriticPolicy.evaluate_actions``) over the actor's parameters,
+   with the standard deviation held at ``action_std``. A fitted deviation collapses towards
+   zero on the action components the script keeps constant, after which PPO's fine-tuning
+   cannot explore them; with it fixed, the loss is a scaled squared error of the mean and
+   ``action_std`` is the exploration fine-tuning starts from;
+3. fits the critic (``predict_values``) to the discounted returns of the normalised rewards,
+   so that PPO's first advantages measure the clone's actions rather than an untrained
+   critic's noise.
+
+The recipe is a short loop of our own over the SB3 policy rather than the ``imitation``
+library's BC: imitation's release pins Gymnasium 0.29 and Stable-Baselines3 2.2.
+
+The recipe of a run is :class:`WarmStart`, read from the ``warm_start`` table of
+``configs/train/ppo.yml`` (keyed by env id, beside the entries rl_zoo3 reads) by
+``agents.train``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tactile_gym.presets import load_yaml
+
+from .demos import Demos
+
+__all__ = [
+    "WarmStart",
+    "behaviour_clone",
+    "fit_values",
+    "load_recipe",
+    "normalise_from_demos",
+    "run_recipe",
+    "warm_start",
+]
+
+
+@dataclass(frozen=True)
+class WarmStart:
+    """The warm-start recipe.
+
+    Attributes:
+        demos: episodes of the scripted policy to record (seeds from ``agents.seeds``), or
+            the path of an ``agents.demos`` file; 0 runs no warm start.
+        bc_epochs: passes over the demonstrations that clone the policy.
+        value_epochs: passes over the demonstrations that fit the critic.
+        batch_size: samples per gradient step.
+        learning_rate: Adam's step size for both fits.
+        action_std: the policy's standard deviation during and after cloning, in units of
+            the normalised action.
+    """
+
+    demos: int | str = 0
+    bc_epochs: int = 50
+    value_epochs: int = 50
+    batch_size: int = 128
+    learning_rate: float = 1e-3
+    action_std: float = 0.2
+
+    def __post_init__(self) -> None:
+        if isinstance(self.demos, bool) or not isinstance(self.demos, (int, str)):
+            raise ValueError(
+                f"warm_start.demos must be a number of episodes or a path, got {self.demos!r}"
+            )
+        if isinstance(self.demos, int) and self.demos < 0:
+            raise ValueError(f"warm_start.demos must be >= 0 episodes, got {self.demos}")
+        for name in ("bc_epochs", "value_epochs", "batch_size"):
+            value = getattr(self, name)
+            low = 1 if name == "batch_size" else 0
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"warm_start.{name} must be an integer >= {low}, got {value!r}")
+        for name in ("learning_rate", "action_std"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+                raise ValueError(f"warm_start.{name} must be a number > 0, got {value!r}")
+
+    @property
+    def enabled(self) -> bool:
+        """Whether the recipe runs at all."""
+        return self.demos != 0
+
+    @classmethod
+    def from_mapping(cls, table: Mapping[str, Any] | None) -> WarmStart:
+        """The recipe of a config's mapping.
+
+        Raises:
+            ValueError: an unknown key, naming it and the allowed ones, or a bad value.
+        """
+        table = dict(table or {})
+        allowed = [f.name for f in fields(cls)]
+        unknown = sorted(set(table) - set(allowed))
+        if unknown:
+            raise ValueError(f"unknown warm_start keys {unknown}; allowed: {', '.join(allowed)}")
+        return cls(**table)
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def normalise_from_demos(vec_normalize, demos: Demos) -> None:
+    """Set a ``VecNormalize``'s observation and return statistics from the demonstrations,
+    as if it had stepped through them (module docstring)."""
+    if vec_normalize.norm_obs:
+        if isinstance(demos.obs, dict):
+            for key in vec_normalize.norm_obs_keys:
+                vec_normalize.obs_rms[key].update(demos.obs[key])
+        else:
+            vec_normalize.obs_rms.update(demos.obs)
+    running = np.zeros(len(demos))
+    ahead = 0.0
+    for t in range(len(demos)):
+        first = t == 0 or demos.episode[t] != demos.episode[t - 1]
+        ahead = demos.rews[t] + (0.0 if first else vec_normalize.gamma * ahead)
+        running[t] = ahead
+    vec_normalize.ret_rms.update(running)
+
+
+def _batches(n: int, batch_size: int, generator):
+    import torch
+
+    order = torch.randperm(n, generator=generator)
+    return [order[i : i + batch_size] for i in range(0, n, batch_size)]
+
+
+def _subset(obs, index):
+    return {k: v[index] for k, v in obs.items()} if isinstance(obs, dict) else obs[index]
+
+
+def behaviour_clone(
+    policy, obs, actions, epochs: int, batch_size: int, learning_rate: float, action_std: float,
+    generator,
+) -> list[float]:  # fmt: skip
+    """Clone ``actions`` into the actor of an SB3 ``ActorCriticPolicy`` (module docstring).
+
+    Args:
+        policy: the PPO policy; its ``log_std`` is set to ``log(action_std)`` and left there.
+        obs: the observations as the policy sees them (tensors, normalised).
+        actions: ``(T, A)`` tensor of the demonstrated actions.
+        epochs, batch_size, learning_rate: the fit's passes, minibatch size and Adam step.
+        action_std: the fixed standard deviation.
+        generator: ``torch.Generator`` for the minibatch order.
+
+    Returns:
+        The mean negative log-likelihood of each epoch.
+    """
+    import torch
+
+    policy.log_std.data.fill_(math.log(action_std))
+    critic = ("value_net.", "mlp_extractor.value_net.")
+    params = [
+        p
+        for name, p in policy.named_parameters()
+        if name != "log_std" and not name.startswith(critic)
+    ]
+    optimizer = torch.optim.Adam(params, lr=learning_rate)
+    losses = []
+    policy.set_training_mode(True)
+    for _ in range(epochs):
+        total = 0.0
+        for index in _batches(len(actions), batch_size, generator):
+            _, log_prob, _ = policy.evaluate_actions(_subset(obs, index), actions[index])
+            loss = -log_prob.mean()
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            total += float(loss.detach()) * len(index)
+        losses.append(total / len(actions))
+    policy.set_training_mode(False)
+    return losses
+
+
+def fit_values(
+    policy, obs, returns, epochs: int, batch_size: int, learning_rate: float, generator
+) -> list[float]:
+    """Fit the critic of an SB3 ``ActorCriticPolicy`` to ``returns`` (``(T,)`` tensor) by
+    squared error, over the critic's own parameters; returns each epoch's mean loss."""
+    import torch
+
+    params = [*policy.mlp_extractor.value_net.parameters(), *policy.value_net.parameters()]
+    optimizer = torch.optim.Adam(params, lr=learning_rate)
+    losses = []
+    policy.set_training_mode(True)
+    for _ in range(epochs):
+        total = 0.0
+        for index in _batches(len(returns), batch_size, generator):
+            values = policy.predict_values(_subset(obs, index)).flatten()
+            loss = torch.nn.functional.mse_loss(values, returns[index])
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            total += float(loss.detach()) * len(index)
+        losses.append(total / len(returns))
+    policy.set_training_mode(False)
+    return losses
+
+
+def warm_start(model, demos: Demos, recipe: WarmStart, seed: int = 0) -> dict[str, Any]:
+    """Run the recipe on a PPO ``model`` (module docstring) and return what it measured:
+    samples, episodes, the demonstrations' seed range, the first and last epochs' losses.
+
+    Raises:
+        ValueError: a model that is not an on-policy actor-critic (PPO, A2C), or
+            demonstrations whose actions do not fit the model's action space.
+    """
+    import torch
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    policy = model.policy
+    if not isinstance(policy, ActorCriticPolicy) or not hasattr(policy, "log_std"):
+        raise ValueError(
+            f"warm_start needs an actor-critic policy with a Gaussian (ppo), "
+            f"got {type(model).__name__}"
+        )
+    if demos.acts.shape[1:] != model.action_space.shape:
+        raise ValueError(
+            f"the demonstrations' actions have shape {demos.acts.shape[1:]}, "
+            f"the model's action space {model.action_space.shape}"
+        )
+    vec_normalize = model.get_vec_normalize_env()
+    obs, rewards = demos.obs, demos.rews
+    if vec_normalize is not None:
+        normalise_from_demos(vec_normalize, demos)
+        obs = vec_normalize.normalize_obs(obs)
+        rewards = vec_normalize.normalize_reward(rewards)
+    generator = torch.Generator().manual_seed(seed)
+    tensors, _ = policy.obs_to_tensor(obs)
+    actions = torch.as_tensor(demos.acts, device=policy.device)
+    returns = torch.as_tensor(
+        demos.discounted_returns(model.gamma, rewards), dtype=torch.float32, device=policy.device
+    )
+    bc = behaviour_clone(
+        policy, tensors, actions, recipe.bc_epochs, recipe.batch_size, recipe.learning_rate,
+        recipe.action_std, generator,
+    )  # fmt: skip
+    value = fit_values(
+        policy, tensors, returns, recipe.value_epochs, recipe.batch_size, recipe.learning_rate,
+        generator,
+    )  # fmt: skip
+    return {
+        "samples": len(demos),
+        "episodes": len(demos.seeds),
+        "seeds": [int(demos.seeds.min()), int(demos.seeds.max())],
+        "bc_loss": [bc[0], bc[-1]] if bc else [],
+        "value_loss": [value[0], value[-1]] if value else [],
+    }
+
+
+def load_recipe(
+    config_file: str | Path, env_id: str, overrides: Mapping[str, Any] | None = None
+) -> WarmStart:
+    """The recipe of ``env_id`` in a training config's ``warm_start`` table (absent: no warm
+    start), updated by ``overrides``.
+
+    Raises:
+        ValueError: a table that is not a mapping of env ids to mappings, or a bad recipe.
+    """
+    table = load_yaml(config_file).get("warm_start") or {}
+    if not isinstance(table, dict) or not isinstance(table.get(env_id) or {}, dict):
+        raise ValueError(f"warm_start in {config_file} must map env ids to recipes, got {table!r}")
+    return WarmStart.from_mapping({**(table.get(env_id) or {}), **dict(overrides or {})})
+
+
+def run_recipe(
+    model, recipe: WarmStart, env_id: str, env_kwargs: dict, seed: int, run_dir: Path
+) -> dict[str, Any]:
+    """``agents.train``'s warm start of a new model: the demonstrations recorded (seeds
+    ``DEMO_SEED ..``) or loaded, then :func:`warm_start`; the recorded demonstrations and
+    what the fits measured go to ``run_dir`` (``demos.npz``, ``warm_start.yml``)."""
+    import time
+
+    import yaml
+
+    from .demos import load_demos, record_demos, save_demos
+    from .seeds import DEMO_SEED
+
+    start = time.monotonic()
+    if isinstance(recipe.demos, int):
+        demos = record_demos(env_id, recipe.demos, DEMO_SEED, env_kwargs)
+        save_demos(demos, Path(run_dir) / "demos.npz")
+    else:
+        demos = load_demos(recipe.demos)
+    recorded = time.monotonic() - start
+    stats = warm_start(model, demos, recipe, seed)
+    stats["seconds"] = {"demos": recorded, "fits": time.monotonic() - start - recorded}
+    with open(Path(run_dir) / "warm_start.yml", "w") as f:
+        yaml.safe_dump(stats, f, sort_keys=False)
+    print(f"warm start: {stats}", flush=True)
+    return stats
