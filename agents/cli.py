@@ -100,7 +100,12 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
     kept as written."""
 
     def _get_help_string(self, action: argparse.Action) -> str:
-        if action.default in (None, False) or action.default == {} or "default:" in action.help:
+        if (
+            action.default is None
+            or action.default is False
+            or action.default == {}
+            or ("default:" in action.help)
+        ):
             return action.help
         return super()._get_help_string(action)
 

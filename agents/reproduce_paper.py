@@ -71,9 +71,9 @@ not the protocol: the ideal sensor (the v1 ids'), doubled sensor noise, skin fri
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -95,6 +95,7 @@ from tactile_gym.sensing import (
 from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
 from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
 
+from .cli import make_parser, progress_bar, run_main
 from .paper_report import markdown_table, plot
 
 #: Measurement schemes: (number of measurements, turn between them in rad).
@@ -572,12 +573,14 @@ def reproduce(
     nominal: NominalLayout | None = None,
     sensor: str = "realistic",
     tare: bool = True,
+    progress: Callable[[], None] | None = None,
 ) -> dict:
     """Run every cell: ``trials`` trials per seed, each condition, scheme and contact case.
 
     The trials of a cell draw from the same random streams under every condition, so the
     conditions differ only by what they change. ``sensor`` (of ``SENSORS``) and ``tare``
-    (tare before each press) apply to every condition.
+    (tare before each press) apply to every condition; ``progress`` is called after each
+    trial.
 
     Returns:
         ``{key: cell}`` with key ``(scheme, case)`` for the nominal condition and
@@ -602,6 +605,8 @@ def reproduce(
                             runs.append(t)
                             proposed.append(1e3 * position_error(scene, t.proposed))
                             simple.append(1e3 * position_error(scene, t.simple))
+                            if progress is not None:
+                                progress()
                     key = (scheme, case) if condition == "nominal" else (condition, scheme, case)
                     results[key] = {"trials": runs, "proposed_mm": proposed, "simple_mm": simple}
         finally:
@@ -615,7 +620,7 @@ def true_joint_position(condition: str = "nominal") -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = make_parser(__spec__.name if __spec__ else "agents.reproduce_paper", __doc__)
     parser.add_argument("--trials", type=int, default=10, help="trials per cell and seed")
     parser.add_argument("--seed", type=int, default=0, help="first seed")
     parser.add_argument("--seeds", type=int, default=1, help="seeds: seed, seed + 1, ...")
@@ -637,11 +642,13 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--no-tare", action="store_true", help="never tare: press on the raw readings"
     )
-    parser.add_argument("--out", default="results/paper")
-    parser.add_argument("--no-plot", action="store_true")
+    parser.add_argument("--out", default="results/paper", help="folder for the table and plots")
+    parser.add_argument("--no-plot", action="store_true", help="write the table only")
     args = parser.parse_args(argv)
     if args.trials < 1 or args.seeds < 1:
-        raise ValueError(f"--trials and --seeds must be >= 1, got {args.trials}, {args.seeds}")
+        raise ValueError(
+            f"--trials and --seeds must be >= 1, got --trials {args.trials}, --seeds {args.seeds}"
+        )
     held_out = [c for c in CONDITIONS if c != "nominal"]
     if args.variants == "all":
         variants = held_out
@@ -649,23 +656,38 @@ def main(argv: list[str] | None = None) -> dict:
         variants = []
     else:
         variants = args.variants.split(",")
-        if not set(variants) <= set(held_out):
-            raise ValueError(f"--variants must be 'all', 'none' or from {held_out}")
+        unknown = [v for v in variants if v not in held_out]
+        if unknown:
+            raise ValueError(
+                f"--variants must be 'all', 'none' or a comma list of {', '.join(held_out)};"
+                f" got {', '.join(map(repr, unknown))}"
+            )
     schemes = tuple(args.schemes.split(","))
-    if not set(schemes) <= set(SCHEMES) or "paper" not in schemes:
-        raise ValueError(f"--schemes must include 'paper' and come from {list(SCHEMES)}")
+    unknown = [s for s in schemes if s not in SCHEMES]
+    if unknown or "paper" not in schemes:
+        raise ValueError(
+            f"--schemes must include 'paper' and come from {', '.join(SCHEMES)};"
+            f" got {args.schemes!r}"
+        )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = tuple(range(args.seed, args.seed + args.seeds))
     t0 = time.perf_counter()
-    results = reproduce(
-        args.trials,
-        seeds,
-        ("nominal", *variants),
-        schemes,
-        sensor=args.sensor,
-        tare=not args.no_tare,
-    )
+    conditions = ("nominal", *variants)
+    total = args.trials * len(seeds) * len(conditions) * len(schemes) * len(CASES)
+    bar = progress_bar(total, "Table I", "trial")
+    try:
+        results = reproduce(
+            args.trials,
+            seeds,
+            conditions,
+            schemes,
+            sensor=args.sensor,
+            tare=not args.no_tare,
+            progress=bar.update,
+        )
+    finally:
+        bar.close()
     table = markdown_table(results, args.trials, len(seeds), SCHEMES)
     print(table)
     print(f"({time.perf_counter() - t0:.0f} s)")
@@ -685,4 +707,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_main(main))

@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 import tactile_gym
-from agents import aggregate, cli, evaluate, sweep, train
+from agents import aggregate, cli, evaluate, reproduce_paper, sweep, train
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "models" / "ppo_HingeProbePrimitive-v1_s2" / "best_model.zip"
@@ -84,6 +84,9 @@ def test_keys_that_train_sets_itself_are_refused(capsys):
         (evaluate.main, ["--policies", "random", "--episodes", "0"], ["episodes", "0"]),
         (sweep.main, ["nosuch", "--dry-run"], ["'nosuch'", "smoke"]),
         (aggregate.main, ["no/such/sweep"], ["'no/such/sweep'"]),
+        (reproduce_paper.main, ["--variants", "mu_0.4"], ["--variants", "'mu_0.4'", "mu_0.3"]),
+        (reproduce_paper.main, ["--schemes", "paper,narrow"], ["--schemes", "'paper,narrow'"]),
+        (reproduce_paper.main, ["--trials", "0"], ["--trials 0"]),
     ],
 )
 def test_unknown_ids_files_and_values(capsys, main, argv, expected):
