@@ -309,6 +309,8 @@ class HingeProbeEnv(gym.Env):
     | reward_error_reduction | (E_{t-1} - E_t) / E_scale                      | E_scale = 10 mm |
     | reward_force_penalty   | -c_f max(f_max - force_limit, 0) / force_limit | c_f = 0.1       |
     | reward_action_cost     | -c_a ‖a‖^2                                     | c_a = 0.001     |
+    | reward_termination     | -c_t on the step that ends the episode in a    | c_t = 0         |
+    |                        | failure (``task.termination_penalty``)         |                 |
 
     L = 0.05 m/rad and E_max = 0.1 m. ``E_0`` is the error of the prior, so without
     penalties the return is ``(E_0 - E_T) / E_scale``: the error removed from what was known
