@@ -403,13 +403,15 @@ def attack_primitives(env_id: str, episodes: int, seed: int = 0):
     )
 
 
-def hold_still_attack(env_id: str, episodes: int, steps: int, seed: int = 0, **make):
-    """The hold-still adversaries (``HOLD_STILL``) in turn on a 6-D id (``make``: more
-    keywords of ``gym.make``, such as ``gate``)."""
+def hold_still_attack(
+    env_id: str, episodes: int, steps: int, seed: int = 0, kinds=HOLD_STILL, **make
+):
+    """The hold-still adversaries (``kinds``) in turn on a 6-D id (``make``: more keywords
+    of ``gym.make``, such as ``gate``)."""
     env = gym.make(env_id, max_steps=steps, **make)
     rng = np.random.default_rng(seed)
     return _judge(env, env.unwrapped, episodes, seed,
-                  lambda k: HOLD_STILL[k % len(HOLD_STILL)](env, rng).act)  # fmt: skip
+                  lambda k: kinds[k % len(kinds)](env, rng).act)  # fmt: skip
 
 
 def honest_edge_presses(env_id: str, episodes: int, steps: int, seed: int = 0, **make):
@@ -484,3 +486,24 @@ def test_gate_survives_the_full_attack(env_id):
 def test_gate_survives_random_primitives(env_id):
     angles, distances = attack_primitives(env_id, episodes=50, seed=100)
     _check(angles, distances, at_least=20)
+
+
+def by_kind(episodes: int = 40, steps: int = 400, seed: int = 100) -> None:
+    """Print, per 6-D id, hold-still kind and gate (with and without ``preload_rule``), how
+    many presses got in and how many of those are more than 5 deg or 3 mm off."""
+    for env_id in SIX_D:
+        for rule in (False, True):
+            for kind in HOLD_STILL:
+                angles, distances = hold_still_attack(
+                    env_id, episodes, steps, seed, (kind,), gate={"preload_rule": rule}
+                )
+                print(
+                    f"{env_id} preload_rule={rule} {kind.__name__}: {len(angles)} accepted,"
+                    f" {int((angles > P95_EDGE_DEG).sum())} > 5 deg,"
+                    f" {int((distances > P95_DISTANCE).sum())} > 3 mm",
+                    flush=True,
+                )
+
+
+if __name__ == "__main__":
+    by_kind()
