@@ -88,7 +88,7 @@ class GateConfig:
         bias_budget: largest drag bias plus twice the predicted edge error, rad.
         preload_rule: whether rules 4 and 5 count the contact patch's path since the first
             touch step by step (the skin's preload after a shear, a rock or a drag, module
-            docstring) rather than the net path alone (the v1 gate).
+            docstring) rather than the net path alone (off: the gate the v1 ids shipped with).
         max_travel_ratio: largest travel since the first contact over the flat-face
             indentation at the measured force.
         max_press_rotation: largest fingertip rotation since the skin was free, rad.
