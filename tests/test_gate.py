@@ -148,11 +148,11 @@ def test_the_patch_path_counts_rocks_and_returns():
     assert abs(moved[2]) < 1e-5  # tangential to a level face
     press = np.array([[0.0, 0.0, -2e-4]] * 5)
     assert tangential_travel(press, DOWN) == pytest.approx(0.0, abs=1e-15)
-    assert travel_along(press, np.array([1.0, 0.0, 0.0])) == 0.0
+    assert travel_along(press, np.array([0.6, 0.0, -0.8]), DOWN) == 0.0
     shear = np.array([[3e-4, 0.0, 0.0], [-3e-4, 0.0, 0.0]])
     path = np.vstack([press, shear])
     assert tangential_travel(path, DOWN) == pytest.approx(6e-4)
-    assert travel_along(path, np.array([1.0, 0.0, 0.0])) == pytest.approx(6e-4)
+    assert travel_along(path, np.array([1.0, 0.0, 0.0]), DOWN) == pytest.approx(6e-4)
 
 
 @pytest.mark.parametrize("rule", [True, False])
