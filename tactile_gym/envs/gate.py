@@ -21,9 +21,10 @@ last was free (a reading below ``TOUCH_FORCE``), a press is accepted when:
    springs hold a tangential preload of up to the patch's tangential travel however the
    fingertip then comes back or holds still (a shear, a rock of the finger about its
    contact, a drag), so the friction tilt counts from the total tangential travel off the
-   press line (:func:`tangential_travel`) and the drag adds the total travel along the edge
-   off that line (:func:`travel_along`), each over the press depth (``docs/design.md`` 4.2,
-   7.2). A press that moves only along its line, back and forth included, reads 0 on both;
+   press line (:func:`tangential_travel`) and the drag from the larger of the net path's part
+   along the edge and the total travel along the edge off that line (:func:`travel_along`),
+   each over the press depth (``docs/design.md`` 4.2, 7.2). A press that moves only along its
+   line, back and forth included, reads 0 on both;
 6. the link held: the fingertip travelled no further than a flat-face press to that force
    needs, times ``max_travel_ratio`` (:func:`link_held`), and did not turn by more than
    ``max_press_rotation``;
@@ -224,8 +225,8 @@ def tangential_travel(displacements, direction) -> float:
 def travel_along(displacements, edge, direction) -> float:
     """The contact patch's total travel along ``edge`` (unit) off the press line, m: sum
     |(displacement less its part along ``direction``) . edge| over the steps since the first
-    touch. A press that moves only along its line (back and forth included) reads 0, so
-    rule 5 adds it to the net path's part along the edge (``preload_rule``)."""
+    touch. A press that moves only along its line (back and forth included) reads 0; rule 5
+    takes the larger of it and the net path's part along the edge (``preload_rule``)."""
     d = np.asarray(displacements, dtype=float).reshape(-1, 3)
     off = d - np.outer(d @ direction, direction)
     return float(np.abs(off @ edge).sum())
@@ -395,7 +396,7 @@ class MeasurementGate:
                     f" line since the first touch, over {depth * 1e3:.2f} mm of depth, more"
                     f" than {cfg.friction_share} x the {np.degrees(touch.tilt):.2f} deg tilt"
                 )
-            along += travel_along(self._patch, touch.edge, path / depth)
+            along = max(along, travel_along(self._patch, touch.edge, path / depth))
         drag = float(np.arcsin(min(along / depth, 1.0)))
         # The force line is known to sigma_f / (|f| sqrt(n)): a drag within twice that is
         # noise, not a drag (a straight-down press reads 0.1-0.2 deg).
