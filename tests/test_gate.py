@@ -10,7 +10,12 @@ import numpy as np
 import pytest
 
 import tactile_gym  # noqa: F401 - registers the envs
-from tactile_gym.envs.gate import GateConfig
+from tactile_gym.envs.gate import (
+    GateConfig,
+    patch_displacement,
+    tangential_travel,
+    travel_along,
+)
 from tactile_gym.sensing import PressConfig, PressController
 
 DOWN = np.array([0.0, 0.0, -1.0])
@@ -119,9 +124,58 @@ def test_a_press_outside_the_force_band_is_not_measured():
         {"friction_share": -0.1},
         {"bias_budget": 2.0},
         {"point_std": 0.0},
+        {"preload_rule": "yes"},
         {"force_band": (0.1, 5.0)},  # its min below TOUCH_FORCE
     ],
 )
 def test_gate_config_validation(kw):
     with pytest.raises(ValueError, match="gate"):
         GateConfig(**kw)
+
+
+def test_the_patch_path_counts_rocks_and_returns():
+    # A rock of 2 deg about a pivot 10 mm above the contact moves the skin there by 0.35 mm
+    # along the level, a straight press not at all off its line; a shear undone still counts
+    # twice, since the sticking springs keep what the skin slipped.
+    pivot, contact = np.array([0.0, 0.0, 0.01]), np.zeros(3)
+    angle = np.deg2rad(2.0)
+    c, s = np.cos(angle), np.sin(angle)
+    turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])  # about y
+    before = (np.eye(3), np.zeros(3))
+    after = (turn, pivot - turn @ pivot)  # the same rotation about the pivot
+    moved = patch_displacement(contact, before, after)
+    assert np.linalg.norm(moved) == pytest.approx(0.01 * angle, rel=1e-3)
+    assert abs(moved[2]) < 1e-5  # tangential to a level face
+    press = np.array([[0.0, 0.0, -2e-4]] * 5)
+    assert tangential_travel(press, DOWN) == pytest.approx(0.0, abs=1e-15)
+    assert travel_along(press, np.array([0.6, 0.0, -0.8]), DOWN) == 0.0
+    shear = np.array([[3e-4, 0.0, 0.0], [-3e-4, 0.0, 0.0]])
+    path = np.vstack([press, shear])
+    assert tangential_travel(path, DOWN) == pytest.approx(6e-4)
+    assert travel_along(path, np.array([1.0, 0.0, 0.0]), DOWN) == pytest.approx(6e-4)
+
+
+@pytest.mark.parametrize("rule", [True, False])
+def test_a_press_rocked_and_rocked_back_is_refused(rule):
+    # Rocked 2 deg about the edge's direction and back, then held still: the net pose is the
+    # press's, but the skin at the contact travelled about 0.7 mm across the edge (the v1
+    # gate takes it).
+    env = gym.make(
+        "tactile_gym/HingeProbe-v1",
+        randomize=False,
+        scenario={"start_across_range": (0.0005, 0.0005)},
+        gate={"preload_rule": rule},
+    )
+    obs, _ = env.reset(seed=0)
+    u = env.unwrapped
+    _, direction = u.scene.edge_line  # truth aims the rock: this test attacks the gate
+    obs = press(env, obs, hold=0)
+    rock = direction * np.deg2rad(2.0) / u.config.max_rotation
+    for turn in (rock, -rock):
+        env.step(np.r_[0, 0, 0, turn].astype(np.float32))
+    for _ in range(8):
+        env.step(np.zeros(6, np.float32))
+    assert len(u.measurements) == (0 if rule else 1)
+    if rule:
+        assert "skin preload" in u.gate.last_rejection or "drag" in u.gate.last_rejection
+    env.close()

@@ -7,7 +7,12 @@ top faces (all lie at the one distance from the axis that the fit assumes, so ea
 measurement: ``tactile_gym/sensing/probing.py``, ``tactile_gym/envs/gate.py``). Required (issue
 "HingeProbe-v1"): P95 edge error <= 5 deg and P95 distance from the edge line <= 3 mm.
 
-The full attack (60 episodes per id) is ``slow``; the default run keeps a short one.
+The hold-still adversaries (issue 17: a shear, a rock of the finger, a drag or an oblique
+approach, then perfectly still, among plain presses at random places on both links) attack
+the gate's preload rule (``GateConfig.preload_rule``, ``docs/design.md`` 7.2); honest presses
+on a long edge must still get in.
+
+The full attacks (60 episodes per id) are ``slow``; the default run keeps short ones.
 ``python -m pytest -m slow tests/test_gate_adversarial.py -n 0 -s`` prints the P95 figures.
 """
 
@@ -173,6 +178,145 @@ class ShearThenPress(PressCycle):
         return np.r_[self.shear, 0, 0, 0, 0] if self.n < 5 else None
 
 
+class HoldStill(PressCycle):
+    """Go to a random place (a point on either link's top face, its ends and sides included,
+    or, half of the time, on a long edge), press there to a random 3-7.5 N, ``disturb`` the
+    press, then hold perfectly still and lift (issue 17, "A gate that sees a preloaded
+    skin"). The truth aims the presses (an adversary may know the scene); the gate never
+    reads it. Subclasses disturb; this one does not (an honest press at a random place)."""
+
+    phases = ("rise", "travel", "press", "disturb", "hold", "lift")
+    on_edge = False
+
+    def aim(self):
+        u, rng = self.u, self.rng
+        edges = _long_edges(u)
+        k = int(rng.integers(4))
+        start, direction, length = edges[k]
+        # Across the face: from this long edge toward the link's other one.
+        across_face = edges[k ^ 1][0] - start
+        across_face -= (across_face @ direction) * direction
+        width = float(np.linalg.norm(across_face))
+        if self.on_edge or rng.random() < 0.5:  # on a long edge, within 1 mm of it
+            along, across = rng.uniform(0.15, 0.85) * length, rng.uniform(-1e-3, 1e-3)
+        else:  # anywhere on or just off a top face: flat face, ends, sides, corners
+            along, across = rng.uniform(-0.1, 1.1) * length, rng.uniform(-0.1, 1.1) * width
+        self.target = start + along * direction + across * across_face / width
+        self.force_target = rng.uniform(3.0, 7.5)
+        self.d = np.array([0.0, 0.0, -1.0])
+        self.prepare()
+
+    def prepare(self):
+        """Draw the disturbance (subclasses)."""
+
+    def tip(self):
+        """The centre of the fingertip's sphere and its lowest point's height, world."""
+        scene, geometry = self.u.scene, self.u.geometry
+        centre = scene.fingertip_rotation @ geometry.sphere_center + scene.fingertip_position
+        return centre, centre[2] - geometry.outer_radius
+
+    def _rise(self, f):
+        return np.r_[0, 0, 1, 0, 0, 0] if self.tip()[1] < self.target[2] + 0.004 else None
+
+    def _travel(self, f):
+        # To 3 mm short of the target, back along the press direction.
+        goal = self.target - self.d * (self.u.geometry.outer_radius + 0.003)
+        offset = (goal - self.tip()[0]) / self.u.config.max_translation
+        return np.r_[offset, 0, 0, 0] if np.linalg.norm(offset) > 0.05 else None
+
+    def _press(self, f):
+        if self.n > 80 or f >= self.force_target:
+            return None
+        gap = self.tip()[1] - self.target[2]
+        if f < 0.1:  # approach: fast while clear of the face, slowly near it
+            step = 0.5 if gap > 0.002 else 0.05
+        else:  # about 6000 N/m once touching
+            step = min(0.08, (self.force_target - f) / 6000.0 / self.u.config.max_translation)
+        return np.r_[self.d * max(step, 0.005), 0, 0, 0]
+
+    def _disturb(self, f):
+        return None
+
+    def _hold(self, f):
+        if self.n == 1:
+            self.presses += 1
+        return np.zeros(6) if self.n < 10 else None
+
+    presses = 0  # presses held (counted when the hold begins)
+
+
+class OnEdge(HoldStill):
+    """Honest presses on a long edge (within 1 mm of it) to 4.5-7 N along the top face's
+    normal (straight down on a level face), held still."""
+
+    on_edge = True
+
+    def prepare(self):
+        self.force_target = self.rng.uniform(4.5, 7.0)
+        self.d = -self.u.scene.object_config.hinge_rotation()[:, 2]
+
+
+class ShearHold(HoldStill):
+    """Shear the pressed skin by 0.1-0.6 mm in a random level direction (half of the time
+    back again, so that the net path is nil), then hold still."""
+
+    def prepare(self):
+        az = self.rng.uniform(-np.pi, np.pi)
+        self.move = np.array([np.cos(az), np.sin(az), 0.0]) * self.rng.uniform(1e-4, 6e-4)
+        self.back = self.rng.random() < 0.5
+
+    def _disturb(self, f):
+        scale = self.u.config.max_translation
+        if self.n == 1:
+            return np.r_[self.move / scale, 0, 0, 0]
+        return np.r_[-self.move / scale, 0, 0, 0] if self.n == 2 and self.back else None
+
+
+class RockHold(HoldStill):
+    """Rock the pressed finger by 1-3 deg about a random level axis (half of the time back
+    again, so that it ends as it began), then hold still."""
+
+    def prepare(self):
+        az = self.rng.uniform(-np.pi, np.pi)
+        angle = np.deg2rad(self.rng.uniform(1.0, 3.0))
+        self.turn = np.array([np.cos(az), np.sin(az), 0.0]) * angle / self.u.config.max_rotation
+        self.back = self.rng.random() < 0.5
+
+    def _disturb(self, f):
+        if self.n == 1:
+            return np.r_[0, 0, 0, self.turn]
+        return np.r_[0, 0, 0, -self.turn] if self.n == 2 and self.back else None
+
+
+class DragHold(HoldStill):
+    """Drag the pressed finger 0.5-3 mm in a random level direction over a few steps,
+    holding the force, then hold still."""
+
+    def prepare(self):
+        az = self.rng.uniform(-np.pi, np.pi)
+        self.steps = int(self.rng.integers(2, 6))
+        per_step = self.rng.uniform(5e-4, 3e-3) / self.steps / self.u.config.max_translation
+        self.move = np.array([np.cos(az), np.sin(az)]) * per_step
+
+    def _disturb(self, f):
+        if self.n > self.steps:
+            return None
+        return np.r_[self.move, np.clip(0.05 * (f - self.force_target), -0.2, 0.2), 0, 0, 0]
+
+
+class ObliqueHold(HoldStill):
+    """Approach and press along a direction 3-30 deg off vertical, then hold still."""
+
+    def prepare(self):
+        tilt = np.deg2rad(self.rng.uniform(3.0, 30.0))
+        az = self.rng.uniform(-np.pi, np.pi)
+        self.d = np.array([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), -np.cos(tilt)])
+
+
+#: The hold-still adversaries (issue 17), and honest presses at random places.
+HOLD_STILL = (HoldStill, ShearHold, RockHold, DragHold, ObliqueHold)
+
+
 ADVERSARIES = (
     Random,
     Corners,
@@ -259,6 +403,32 @@ def attack_primitives(env_id: str, episodes: int, seed: int = 0):
     )
 
 
+def hold_still_attack(
+    env_id: str, episodes: int, steps: int, seed: int = 0, kinds=HOLD_STILL, **make
+):
+    """The hold-still adversaries (``kinds``) in turn on a 6-D id (``make``: more keywords
+    of ``gym.make``, such as ``gate``)."""
+    env = gym.make(env_id, max_steps=steps, **make)
+    rng = np.random.default_rng(seed)
+    return _judge(env, env.unwrapped, episodes, seed,
+                  lambda k: kinds[k % len(kinds)](env, rng).act)  # fmt: skip
+
+
+def honest_edge_presses(env_id: str, episodes: int, steps: int, seed: int = 0, **make):
+    """Honest presses on a long edge (``OnEdge``): (presses held, accepted, edge errors
+    (deg) and line distances (m) of the accepted)."""
+    env = gym.make(env_id, max_steps=steps, **make)
+    rng = np.random.default_rng(seed)
+    policies = []
+
+    def policy(k):
+        policies.append(OnEdge(env, rng))
+        return policies[-1].act
+
+    angles, distances = _judge(env, env.unwrapped, episodes, seed, policy)
+    return sum(p.presses for p in policies), len(angles), angles, distances
+
+
 def _check(angles, distances, at_least: int):
     """The issue's bounds on what the gate let through; ``pytest -s`` prints the figures."""
     print(
@@ -276,8 +446,35 @@ def test_gate_survives_a_short_attack():
     _check(angles, distances, at_least=3)
 
 
+SIX_D = [e for e in tactile_gym.ENV_IDS if "Primitive" not in e]
+
+
+def test_gate_refuses_a_short_hold_still_attack():
+    angles, distances = hold_still_attack("tactile_gym/HingeProbe-v1", episodes=20, steps=300)
+    # Honest presses (``HoldStill`` itself) are among them: some get in, and are right.
+    _check(angles, distances, at_least=3)
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("env_id", [e for e in tactile_gym.ENV_IDS if "Primitive" not in e])
+@pytest.mark.parametrize("env_id", SIX_D)
+def test_gate_refuses_the_hold_still_attack(env_id):
+    angles, distances = hold_still_attack(env_id, episodes=60, steps=400, seed=100)
+    _check(angles, distances, at_least=10)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env_id", SIX_D)
+def test_honest_presses_on_an_edge_get_in(env_id):
+    pressed, accepted, angles, distances = honest_edge_presses(env_id, 30, 400, seed=200)
+    print(f"\n{accepted} of {pressed} honest presses on an edge accepted")
+    # The gate refuses honest presses whose tilt or force is too small (a 3-4 N press, the
+    # contact 1 mm inside the face); the rest must get in and be right.
+    assert accepted >= 0.3 * pressed
+    _check(angles, distances, at_least=10)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env_id", SIX_D)
 def test_gate_survives_the_full_attack(env_id):
     angles, distances = attack(env_id, episodes=60, steps=250, seed=100)
     # On tilted faces most adversarial presses are oblique and refused: fewer get through.
@@ -289,3 +486,27 @@ def test_gate_survives_the_full_attack(env_id):
 def test_gate_survives_random_primitives(env_id):
     angles, distances = attack_primitives(env_id, episodes=50, seed=100)
     _check(angles, distances, at_least=20)
+
+
+def by_kind(steps: int = 400, seed: int = 100) -> None:
+    """Print, per 6-D id and gate (with and without ``preload_rule``), what the hold-still
+    attack of ``test_gate_refuses_the_hold_still_attack`` lets in (60 episodes), then each
+    disturbing kind alone (20 episodes): presses accepted, and how many of them are more than
+    5 deg or 3 mm off."""
+    for env_id in SIX_D:
+        for rule in (False, True):
+            runs = [("all", HOLD_STILL, 60)] + [(k.__name__, (k,), 20) for k in HOLD_STILL[1:]]
+            for name, kinds, episodes in runs:
+                angles, distances = hold_still_attack(
+                    env_id, episodes, steps, seed, kinds, gate={"preload_rule": rule}
+                )
+                print(
+                    f"{env_id} preload_rule={rule} {name} ({episodes} episodes):"
+                    f" {len(angles)} accepted, {int((angles > P95_EDGE_DEG).sum())} > 5 deg,"
+                    f" {int((distances > P95_DISTANCE).sum())} > 3 mm",
+                    flush=True,
+                )
+
+
+if __name__ == "__main__":
+    by_kind()

@@ -15,6 +15,16 @@ last was free (a reading below ``TOUCH_FORCE``), a press is accepted when:
 5. the bias that the path's drag along the edge predicts, plus twice the predicted edge
    error, is within ``bias_budget`` (:func:`drag_bias`, :func:`bias_within_budget`); the
    bias is added to the measurement's edge covariance;
+
+   with ``preload_rule`` (the default), rules 4 and 5 read the path of the contact patch
+   since the first touch, step by step, rather than the net path alone: the skin's sticking
+   springs hold a tangential preload of up to the patch's tangential travel however the
+   fingertip then comes back or holds still (a shear, a rock of the finger about its
+   contact, a drag), so the friction tilt counts from the total tangential travel off the
+   press line (:func:`tangential_travel`) and the drag from the larger of the net path's part
+   along the edge and the total travel along the edge off that line (:func:`travel_along`),
+   each over the press depth (``docs/design.md`` 4.2, 7.2). A press that moves only along its
+   line, back and forth included, reads 0 on both;
 6. the link held: the fingertip travelled no further than a flat-face press to that force
    needs, times ``max_travel_ratio`` (:func:`link_held`), and did not turn by more than
    ``max_press_rotation``;
@@ -41,7 +51,7 @@ import numpy as np
 from tactile_gym.estimation import AxisEstimate
 from tactile_gym.sensing import TOUCH_FORCE, Touch, TouchSensor, indentation_depth
 from tactile_gym.spatial import matrix_to_rotvec
-from tactile_gym.validation import check_int, check_number, check_range
+from tactile_gym.validation import check_bool, check_int, check_number, check_range
 
 __all__ = [
     "GateConfig",
@@ -53,6 +63,9 @@ __all__ = [
     "friction_free",
     "line_distance",
     "link_held",
+    "patch_displacement",
+    "tangential_travel",
+    "travel_along",
 ]
 
 _DEG = np.pi / 180.0
@@ -74,6 +87,9 @@ class GateConfig:
         friction_share: largest ratio of the path-to-force angle to the force's tilt.
         drag_gain: how much a drag along the edge turns the measured edge (rule 5).
         bias_budget: largest drag bias plus twice the predicted edge error, rad.
+        preload_rule: whether rules 4 and 5 count the contact patch's path since the first
+            touch step by step (the skin's preload after a shear, a rock or a drag, module
+            docstring) rather than the net path alone (off: the gate the v1 ids shipped with).
         max_travel_ratio: largest travel since the first contact over the flat-face
             indentation at the measured force.
         max_press_rotation: largest fingertip rotation since the skin was free, rad.
@@ -99,6 +115,7 @@ class GateConfig:
     friction_share: float = 0.5
     drag_gain: float = 1.7
     bias_budget: float = 5.0 * _DEG
+    preload_rule: bool = True
     max_travel_ratio: float = 2.5
     max_press_rotation: float = 0.2 * _DEG
     table_clearance: float = 0.001
@@ -123,6 +140,7 @@ class GateConfig:
         check_number("gate.friction_share", self.friction_share, 0.0, 1.0, low_open=True)
         check_number("gate.drag_gain", self.drag_gain, 0.0, 10.0)
         check_number("gate.bias_budget", self.bias_budget, 0.0, np.pi / 4, low_open=True)
+        check_bool("gate.preload_rule", self.preload_rule)
         check_number("gate.max_travel_ratio", self.max_travel_ratio, 1.0, 20.0)
         check_number("gate.max_press_rotation", self.max_press_rotation, 0.0, 0.1, low_open=True)
         check_number("gate.table_clearance", self.table_clearance, 0.0, 0.05)
@@ -171,6 +189,47 @@ def bias_within_budget(bias, edge_std, config: GateConfig):
     """Whether a drag bias plus twice the predicted edge error, rad, fits ``bias_budget``
     (rule 5); floats or arrays."""
     return bias + 2.0 * edge_std <= config.bias_budget
+
+
+def patch_displacement(point, before, after) -> np.ndarray:
+    """How far one step moved the skin at the contact point, world frame, m.
+
+    The skin point now at ``point`` sat at ``R0 R1^T (point - p1) + p0`` before the step: the
+    fingertip's translation plus its rotation about the contact (a rock of the finger moves
+    the patch by the angle times the lever from the pivot to the contact).
+
+    Args:
+        point: (3,) the contact point after the step, world frame, m.
+        before, after: the fingertip pose (rotation (3, 3), position (3,)) before and after.
+    """
+    (r0, p0), (r1, p1) = before, after
+    point = np.asarray(point, dtype=float)
+    return point - (r0 @ (r1.T @ (point - p1)) + p0)
+
+
+def tangential_travel(displacements, direction) -> float:
+    """The contact patch's total travel off the press line, m: the sum of the steps'
+    displacements (``patch_displacement``) less their parts along ``direction`` (unit, the
+    net press path). It bounds the tangential stretch of every sticking spring of the skin,
+    whatever the path did since (a step back does not undo a slip); a straight press reads 0.
+
+    Args:
+        displacements: (n, 3) the steps' patch displacements since the first touch, m.
+        direction: (3,) unit press direction.
+    """
+    d = np.asarray(displacements, dtype=float).reshape(-1, 3)
+    off = d - np.outer(d @ direction, direction)
+    return float(np.linalg.norm(off, axis=1).sum())
+
+
+def travel_along(displacements, edge, direction) -> float:
+    """The contact patch's total travel along ``edge`` (unit) off the press line, m: sum
+    |(displacement less its part along ``direction``) . edge| over the steps since the first
+    touch. A press that moves only along its line (back and forth included) reads 0; rule 5
+    takes the larger of it and the net path's part along the edge (``preload_rule``)."""
+    d = np.asarray(displacements, dtype=float).reshape(-1, 3)
+    off = d - np.outer(d @ direction, direction)
+    return float(np.abs(off @ edge).sum())
 
 
 def flat_press_depth(force, skin_stiffness: float, radius: float):
@@ -247,6 +306,8 @@ class MeasurementGate:
         self._pose: tuple[np.ndarray, np.ndarray] | None = None
         self._pressed = False  # a press measurement was taken during this touch
         self._window: list[np.ndarray] = []
+        # The skin's displacement at the contact, step by step since the first touch.
+        self._patch: list[np.ndarray] = []
         self.last_rejection = ""
 
     def offer(self, wrench: np.ndarray, rotation: np.ndarray, position: np.ndarray, touch: Touch):
@@ -271,6 +332,9 @@ class MeasurementGate:
             # drag of a lightly loaded skin too); its travel counts from the first contact.
             self._touch_pose = before if before is not None else self._pose
             self._contact_position = position.copy()
+            self._patch = []
+        if before is not None:  # the skin at the contact, moved by this step
+            self._patch.append(patch_displacement(touch.point, before, self._pose))
         in_band = cfg.force_band[0] <= magnitude <= cfg.force_band[1]
         still = moved <= cfg.still_translation and turned <= cfg.still_rotation
         out = []
@@ -322,7 +386,18 @@ class MeasurementGate:
                 f"press path {np.degrees(deviation):.2f} deg off the force line, more than"
                 f" {cfg.friction_share} x its {np.degrees(touch.tilt):.2f} deg tilt (friction)"
             )
-        drag = float(np.arcsin(min(abs(path @ touch.edge) / depth, 1.0)))
+        along = abs(float(path @ touch.edge))
+        if cfg.preload_rule:
+            # The friction tilt the skin can hold: its tangential travel over the depth.
+            off = tangential_travel(self._patch, path / depth)
+            if not friction_free(float(np.arctan(off / depth)), touch.tilt, cfg):
+                return self._reject(
+                    f"skin preload: the contact travelled {off * 1e3:.2f} mm off the press"
+                    f" line since the first touch, over {depth * 1e3:.2f} mm of depth, more"
+                    f" than {cfg.friction_share} x the {np.degrees(touch.tilt):.2f} deg tilt"
+                )
+            along = max(along, travel_along(self._patch, touch.edge, path / depth))
+        drag = float(np.arcsin(min(along / depth, 1.0)))
         # The force line is known to sigma_f / (|f| sqrt(n)): a drag within twice that is
         # noise, not a drag (a straight-down press reads 0.1-0.2 deg).
         noise = self.sensor.sensor.force_noise_std / (magnitude * np.sqrt(len(window)))
