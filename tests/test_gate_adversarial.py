@@ -365,6 +365,13 @@ def _errors_against_both_long_edges(u, m):
     return best[1], best[0]
 
 
+def _padded(action, space) -> np.ndarray:
+    """The adversaries move the finger (6-D); on an id with a tare component (v2) they never
+    ask for a tare, so it is padded with zeros."""
+    action = np.asarray(action, np.float32)
+    return np.r_[action, np.zeros(space.shape[0] - action.shape[0], np.float32)]
+
+
 def _judge(env, low, episodes: int, seed: int, policy) -> tuple[np.ndarray, np.ndarray]:
     """Run ``policy(k)`` (a function of the observation) for episodes ``k``; return the edge
     errors (deg) and line distances (m) of every measurement ``low`` (the 6-D env) accepts."""
@@ -375,7 +382,7 @@ def _judge(env, low, episodes: int, seed: int, policy) -> tuple[np.ndarray, np.n
         done = False
         while not done:
             before = len(low.measurements)
-            obs, _, terminated, truncated, _ = env.step(act(obs))
+            obs, _, terminated, truncated, _ = env.step(_padded(act(obs), env.action_space))
             done = terminated or truncated
             # Judge each new measurement against the link as it is when accepted.
             for m in low.measurements[before:]:
