@@ -76,13 +76,12 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from tactile_gym.estimation import fit_axis_planar, fit_axis_simple
-from tactile_gym.presets import load_preset, preset_names
 from tactile_gym.sensing import (
     TARE_SAMPLES,
     PressConfig,
@@ -92,11 +91,18 @@ from tactile_gym.sensing import (
     TouchSensor,
     run_press,
 )
-from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
+from tactile_gym.sim import ProbeScene
 from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
 
 from .cli import make_parser, progress_bar, run_main
 from .paper_report import markdown_table, plot
+from .paper_scene import (
+    CONDITIONS,
+    SENSORS,
+    NominalLayout,
+    condition_object,
+    make_scene,
+)
 
 #: Measurement schemes: (number of measurements, turn between them in rad).
 SCHEMES = {"paper": (4, math.radians(30.0)), "wide": (7, math.radians(20.0))}
@@ -123,84 +129,9 @@ MAX_PRESSES = 8  # per search
 #: the fixed grip; fixed ones stay, so they start nearer, where an edge-direction error moves
 #: the edge line less (docs/design.md 6.3).
 START_ALONG = {"slides": 0.060, "fixed": 0.035}
-END_CLEARANCE = 0.012  # m, the first search keeps this far from the grip's free end
-START_INSET = 0.005  # m inside the nominal edge, the first search
 START_ANGLE_RANGE = math.radians(10.0)  # rad, the grip's true start angle, +- (never told)
-HAND_HOLD_TORQUE = 2.0  # N m, the hand steadying the grip (the loose hinge: 0.1 N m)
 DOWN_ROTATION = z_to([0.0, 0.0, -1.0])  # finger axis pointing down, sensor to world
 DOWN = matrix_to_quaternion(DOWN_ROTATION)
-#: The F/T sensors of ``--sensor``: the env's default (realistic), the v1 ids' ideal one, and
-#: the ideal one with a constant offset that only a tare removes.
-SENSORS = {
-    "realistic": SensorConfig(),
-    "ideal": SensorConfig.ideal(),
-    "offset": SensorConfig.ideal(force_bias=(0.1, 0.1, 0.1), moment_bias=(2e-3, 2e-3, 2e-3)),
-}
-
-#: Held-out conditions: a change of the world, the protocol unchanged; the shipped env presets
-#: (``configs/env``: the ideal sensor, sensor noise x2, friction 0.3 and 0.8, links of 60 and
-#: 150 mm). With another grip the operator's nominal layout is that grip's (it is in plain
-#: sight).
-CONDITIONS = {"nominal": {}, **{name: load_preset("env", name) for name in preset_names("env")}}
-
-
-def condition_object(condition: str) -> ObjectConfig:
-    """The grip of a condition as documented (its nominal configuration), the hand holding
-    it. The joint angle of each trial, the truth, is drawn apart and never told."""
-    if condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {sorted(CONDITIONS)}, got {condition!r}")
-    change = CONDITIONS[condition].get("object", {})
-    return ObjectConfig.scissors(**{**change, "holding_torque": HAND_HOLD_TORQUE})
-
-
-@dataclass(frozen=True)
-class NominalLayout:
-    """What the operator knows of the layout: the documented, not the episode's, geometry.
-
-    Attributes:
-        hinge: (2,) hinge pin near here, world x-y, m.
-        heading: direction of the free grip at joint angle 0, rad from world +x.
-        width: width of the grip, m.
-        thickness: thickness of the grip (its top face over the table), m.
-        reach: how far the grip reaches past the hinge pin, m.
-        side: which side of the grip is probed: +1 its left edge (toward +y at heading 0),
-            -1 its right edge.
-    """
-
-    hinge: tuple[float, float]
-    heading: float
-    width: float
-    thickness: float
-    reach: float
-    side: int
-
-    @classmethod
-    def of(cls, config: ObjectConfig) -> NominalLayout:
-        """The layout an operator reads off an object's documented configuration."""
-        x, y, _ = config.link_direction
-        return cls(
-            hinge=(config.joint_position[0], config.joint_position[1]),
-            heading=math.atan2(y, x),
-            width=config.free_link_size[1],
-            thickness=config.joint_position[2] + config.free_link_size[2] / 2,
-            reach=config.free_link_size[0] - config.pin_overlap,
-            side=config.edge_side,
-        )
-
-    def first_search(self, along: float) -> tuple[np.ndarray, np.ndarray]:
-        """Start point (2,) and outward direction (2,) of the first edge search, world x-y.
-
-        The start is ``along`` (m) out along the nominal grip, at most ``END_CLEARANCE``
-        short of its end, and ``START_INSET`` inside its nominal probed edge; outward points
-        across that edge, away from the grip.
-        """
-        along = min(along, self.reach - END_CLEARANCE)
-        heading = np.array([math.cos(self.heading), math.sin(self.heading)])
-        outward = self.side * np.array([-heading[1], heading[0]])
-        start = (
-            np.asarray(self.hinge) + along * heading + (0.5 * self.width - START_INSET) * outward
-        )
-        return start, outward
 
 
 @dataclass
@@ -550,19 +481,6 @@ def run_trial(
 
 
 # --- the experiment ----------------------------------------------------------------------
-
-
-def make_scene(condition: str, sensor: str = "realistic") -> ProbeScene:
-    """The paper's scene under a condition of ``CONDITIONS``, the hand holding the grip,
-    with a sensor of ``SENSORS`` (a condition's ``sensor_model`` and ``sensor`` fields
-    change it)."""
-    change = CONDITIONS[condition]
-    base = SENSORS[change.get("sensor_model", sensor)]
-    return ProbeScene(
-        condition_object(condition),
-        SkinConfig(**change.get("skin", {})),
-        replace(base, **change.get("sensor", {})),
-    )
 
 
 def reproduce(

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from agents import reproduce_paper as rp
+from agents.paper_scene import HAND_HOLD_TORQUE
 from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
 
 NOMINAL = rp.NominalLayout.of(rp.condition_object("nominal"))
@@ -69,7 +70,7 @@ def test_press_stops_on_the_noisy_reading():
     # A force bias of 1.5 N along the finger axis makes the reading 1.5 N higher than the
     # true force: untared, the press must stop on the reading, at a true 3.5 N.
     sensor = SensorConfig.ideal(force_bias=(0.0, 0.0, -1.5))
-    config = ObjectConfig.scissors(holding_torque=rp.HAND_HOLD_TORQUE)
+    config = ObjectConfig.scissors(holding_torque=HAND_HOLD_TORQUE)
     with ProbeScene(config, SkinConfig(), sensor) as biased:
         biased.reset(0.0, [0.06, 0.105, 0.05], rp.DOWN)
         targets = []
@@ -108,7 +109,7 @@ def test_sensor_choice_and_the_tare_before_each_press():
     with rp.make_scene("ideal") as scene:
         assert scene.sensor_config == SensorConfig.ideal()
     # A tared press on the realistic sensor (offset, weight) stops at the true 5 N.
-    config = ObjectConfig.scissors(holding_torque=rp.HAND_HOLD_TORQUE)
+    config = ObjectConfig.scissors(holding_torque=HAND_HOLD_TORQUE)
     with ProbeScene(config, SkinConfig(), SensorConfig()) as scene:
         rng = np.random.default_rng(0)
         scene.reset(0.0, [0.06, 0.105, 0.05], rp.DOWN, rng=rng)
