@@ -28,8 +28,9 @@ _PLANAR = {"families": ("scissors",), "estimator": "planar"}
 # still builds it.
 _3D = {"families": ("scissors", "door", "tilted"), "estimator": "3d"}
 
-# v1: the ideal sensor (white noise only) and no tare (docs/design.md 10).
-_V1 = {"sensor_model": "ideal", "tare_action": False}
+# v1: the ideal sensor (white noise only), no tare and the gate without the preload rule
+# (docs/design.md 7.2, 10).
+_V1 = {"sensor_model": "ideal", "tare_action": False, "gate": {"preload_rule": False}}
 
 _SIX_D = (
     "tactile_gym.envs.hinge_probe_v1:HingeProbeEnv",
@@ -51,7 +52,7 @@ _TASKS = (
 #: tilted axes with a 3D estimator), each with two action modes on the same physics (6-D
 #: fingertip motions and a tare, or probing primitives that run the former underneath).
 ENV_IDS: tuple[str, ...] = tuple(f"tactile_gym/{name}-v2" for name, _, _ in _TASKS)
-#: The v1 ids, the same tasks with the ideal sensor and no tare.
+#: The v1 ids, the same tasks with the ideal sensor, no tare and the v1 gate.
 LEGACY_ENV_IDS: tuple[str, ...] = tuple(i.replace("-v2", "-v1") for i in ENV_IDS)
 
 for _version, _extra in (("v2", {}), ("v1", _V1)):

@@ -371,8 +371,9 @@ class HingeProbeEnv(gym.Env):
 
     * v2: a realistic F/T sensor by default (an offset drawn at reset, a slow drift, the
       fingertip's weight; ``sensor_model="realistic"``), taring at reset and on a seventh
-      action component, and the observed wrench tared and gravity-compensated
-      (``docs/design.md`` 5.1). The v1 ids stay registered unchanged.
+      action component, the observed wrench tared and gravity-compensated
+      (``docs/design.md`` 5.1), and a gate that counts the skin's path since first touch
+      (``gate={"preload_rule": True}``, 7.2). The v1 ids stay registered unchanged.
     * v1: the skin presses each node along the face it entered (the paper's edge signal from a
       pure press); a measurement gate judged from observable quantities only; the fingertip
       starts leaning in a random direction; the reward starts from the prior's error; the
