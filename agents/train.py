@@ -31,7 +31,6 @@ import copy
 import difflib
 import functools
 import inspect
-import math
 import os
 import shlex
 import shutil
@@ -56,6 +55,7 @@ from .cli import (
     require,
     run_main,
 )
+from .progress import progress_lines
 from .seeds import DEMO_SEED, SELECTION_SEED, seed_ranges
 
 ALGOS = ("ppo", "sac")
@@ -544,41 +544,6 @@ def _mark_failed(run_dir: Path, created: bool, error: BaseException) -> None:
         return
     reason = "interrupted" if isinstance(error, KeyboardInterrupt) else repr(error)
     (run_dir / "failed.txt").write_text(f"{reason}\n")
-
-
-def progress_lines(total_steps: int, interval: float = 30.0):
-    """A stable-baselines3 callback that prints env steps done of ``total_steps``, the time
-    elapsed and an ETA, at most every ``interval`` seconds and at the end: progress for a
-    log (a sweep's ``job.log``), where a progress bar would be noise."""
-    from stable_baselines3.common.callbacks import BaseCallback
-
-    class ProgressLines(BaseCallback):
-        def _on_training_start(self) -> None:
-            self.first = self.num_timesteps
-            self.start = self.last = time.monotonic()
-
-        def _on_step(self) -> bool:
-            now, done = time.monotonic(), self.num_timesteps
-            if now - self.last >= interval or done >= total_steps:
-                self.last = now
-                rate = (done - self.first) / max(now - self.start, 1e-9)
-                eta = max(total_steps - done, 0) / rate if rate > 0 else math.inf
-                print(
-                    f"{done}/{total_steps} env steps ({100 * done / total_steps:.0f} %), "
-                    f"{clock(now - self.start)} elapsed, ETA {clock(eta)}",
-                    flush=True,
-                )
-            return True
-
-    return ProgressLines()
-
-
-def clock(seconds: float) -> str:
-    """``h:mm:ss``, or ``-`` where unknown."""
-    if not math.isfinite(seconds):
-        return "-"
-    seconds = int(seconds)
-    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
 
 
 def main(argv: list[str] | None = None) -> Path:
