@@ -355,7 +355,7 @@ PLANAR_IDS = [ENV_IDS[0], PRIMITIVE_IDS[0]]
         ({"object": {1: 2, "a": 3}}, "object"),  # TypeError
         ({"skin": {1: 2, "a": 3}}, "skin"),  # TypeError
         ({"object": {"axis": (1e300, 1e300, 0.0)}}, "object.axis"),  # blamed link_direction
-        ({"gate": {"force_band": (0.0, 1e-5)}}, "force_band"),  # blamed touch_force alone
+        ({"gate": {"force_band": (0.0, 1e-5)}}, "force_band"),  # below TOUCH_FORCE
         ({"max_translation": 5e-324}, "max_translation"),  # OverflowError in a primitive
         # A tilted axis contradicts the planar estimator, as other families do.
         ({"object": {"axis": (1.0, 0.0, 1.0)}}, "object.axis"),
