@@ -16,6 +16,7 @@ A dict observation holds views of that vector. World frame, SI units (``docs/des
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -64,8 +65,15 @@ class ObservationGroup:
     key: ClassVar[str]
 
     @classmethod
+    @functools.cache
+    def entries(cls) -> tuple[tuple[str, int], ...]:
+        """The entries' names and sizes, in order (read once per group: the env encodes and
+        the skills decode every step)."""
+        return tuple((f.name, f.metadata["size"]) for f in dataclasses.fields(cls))
+
+    @classmethod
     def size(cls) -> int:
-        return sum(f.metadata["size"] for f in dataclasses.fields(cls))
+        return sum(n for _, n in cls.entries())
 
     @classmethod
     def space(cls) -> spaces.Box:
@@ -77,16 +85,15 @@ class ObservationGroup:
 
     def to_array(self) -> np.ndarray:
         """The entries in order, float64 (before clipping)."""
-        return np.concatenate([np.ravel(getattr(self, f.name)) for f in dataclasses.fields(self)])
+        return np.concatenate([np.ravel(getattr(self, name)) for name, _ in self.entries()])
 
     @classmethod
     def from_array(cls, values: np.ndarray) -> ObservationGroup:
         """The group of an observation's array for its key."""
         values = np.asarray(values, dtype=float)
         named, start = {}, 0
-        for f in dataclasses.fields(cls):
-            n = f.metadata["size"]
-            named[f.name] = float(values[start]) if n == 1 else values[start : start + n]
+        for name, n in cls.entries():
+            named[name] = float(values[start]) if n == 1 else values[start : start + n]
             start += n
         return cls(**named)
 
