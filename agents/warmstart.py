@@ -157,8 +157,6 @@ def behaviour_clone(
     Returns:
         The mean negative log-likelihood of each epoch.
     """
-    import torch
-
     policy.log_std.data.fill_(math.log(action_std))
     critic = ("value_net.", "mlp_extractor.value_net.")
     params = [
@@ -166,21 +164,14 @@ def behaviour_clone(
         for name, p in policy.named_parameters()
         if name != "log_std" and not name.startswith(critic)
     ]
-    optimizer = torch.optim.Adam(params, lr=learning_rate)
-    losses = []
-    policy.set_training_mode(True)
-    for _ in range(epochs):
-        total = 0.0
-        for index in _batches(len(actions), batch_size, generator):
-            _, log_prob, _ = policy.evaluate_actions(_subset(obs, index), actions[index])
-            loss = -log_prob.mean()
-            optimizer.zero_grad()
-            loss.backward()
-            optimizer.step()
-            total += float(loss.detach()) * len(index)
-        losses.append(total / len(actions))
-    policy.set_training_mode(False)
-    return losses
+
+    def nll(index):
+        _, log_prob, _ = policy.evaluate_actions(_subset(obs, index), actions[index])
+        return -log_prob.mean()
+
+    return _minimise(
+        policy, params, nll, len(actions), epochs, batch_size, learning_rate, generator
+    )
 
 
 def fit_values(
@@ -191,19 +182,35 @@ def fit_values(
     import torch
 
     params = [*policy.mlp_extractor.value_net.parameters(), *policy.value_net.parameters()]
+
+    def squared_error(index):
+        values = policy.predict_values(_subset(obs, index)).flatten()
+        return torch.nn.functional.mse_loss(values, returns[index])
+
+    return _minimise(
+        policy, params, squared_error, len(returns), epochs, batch_size, learning_rate, generator
+    )
+
+
+def _minimise(
+    policy, params, loss_of, n: int, epochs: int, batch_size: int, learning_rate: float, generator
+) -> list[float]:
+    """Adam on ``params`` over shuffled minibatches of ``n`` samples, ``loss_of(index)`` the
+    minibatch loss, with the policy in training mode; returns each epoch's mean loss."""
+    import torch
+
     optimizer = torch.optim.Adam(params, lr=learning_rate)
     losses = []
     policy.set_training_mode(True)
     for _ in range(epochs):
         total = 0.0
-        for index in _batches(len(returns), batch_size, generator):
-            values = policy.predict_values(_subset(obs, index)).flatten()
-            loss = torch.nn.functional.mse_loss(values, returns[index])
+        for index in _batches(n, batch_size, generator):
+            loss = loss_of(index)
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
             total += float(loss.detach()) * len(index)
-        losses.append(total / len(returns))
+        losses.append(total / n)
     policy.set_training_mode(False)
     return losses
 
