@@ -23,6 +23,7 @@ def facts(**kw) -> StepFacts:
         shell_contact=False,
         hinge_distance=0.05,
         action=np.zeros(6),
+        measurements=1,
     )
     return StepFacts(**{**base, **kw})
 
@@ -99,3 +100,27 @@ def test_the_termination_penalty_is_off_by_default_and_validated():
     assert task.get_reward(facts(shell_contact=True))[1]["reward_termination"] == 0.0
     with pytest.raises(ValueError, match="termination_penalty"):
         TaskConfig(termination_penalty=-0.1)
+
+
+def test_prior_error_scores_the_prior_by_a_fixed_error():
+    """With prior_error the prior's steps earn nothing whatever its true error, and the return
+    is (prior_error - E_T) / E_scale: the default return less the episode's E_0 - prior_error."""
+    errors = [(0.012, 0), (0.012, 0), (0.004, 2), (0.0015, 5)]  # (position error, measurements)
+    returns = {}
+    for prior_error in (None, 0.01):
+        task = AxisEstimationTask(TaskConfig(prior_error=prior_error))
+        task.initialize_episode(0.012, 0.0)
+        rewards = [
+            task.get_reward(facts(position_error=p, measurements=m))[0] for p, m in errors
+        ]
+        returns[prior_error] = sum(rewards)
+        if prior_error is not None:
+            assert rewards[:2] == [0.0, 0.0]
+    assert returns[0.01] == pytest.approx((0.01 - 0.0015) / 0.01)
+    assert returns[None] - returns[0.01] == pytest.approx((0.012 - 0.01) / 0.01)
+
+
+@pytest.mark.parametrize("value", [0.0, -0.01, 0.2])
+def test_prior_error_is_validated(value):
+    with pytest.raises(ValueError, match="prior_error"):
+        TaskConfig(prior_error=value)

@@ -635,6 +635,7 @@ class HingeProbeEnv(gym.Env):
             shell_contact=bool(step_info.shell_contact),
             hinge_distance=float(np.linalg.norm(self._scene.fingertip_position - pin)),
             action=action,
+            measurements=len(self.pipeline.measurements),
         )
 
     def _true_axis_for_render(self) -> tuple[np.ndarray, np.ndarray]:

@@ -15,6 +15,14 @@ removed from what it knew at the start: an early, poorly supported estimate does
 unless it is better than the prior, and random actions earn about nothing. A step that ends
 the episode as a failure (``TERMINATION_REASONS``) also pays ``termination_penalty``: without it
 a failure only forfeits the error still to be removed, which early in an episode is little.
+
+``prior_error`` scores the prior by a fixed error instead of its true one: while no
+measurement has entered the estimate, ``E`` is ``prior_error``, and the return becomes
+``(prior_error - E_T) / E_scale``. It differs from the default return by ``E_0 - prior_error``,
+a constant of the episode that no action changes and no observation shows, so the optimal
+policy is the same; but the return then varies with the final error alone, not with the
+prior's error, which dominates the default return's spread (``docs/design.md`` 12). It is a
+training option: the ids' default stays the prior's true error.
 """
 
 from __future__ import annotations
@@ -56,6 +64,8 @@ class TaskConfig:
             the hinge pin, m.
         termination_penalty: reward lost by the step that ends the episode as a failure
             (``TERMINATION_REASONS``), in units of reward (1 = ``error_scale`` of error).
+        prior_error: the error E counts as while no measurement has entered the estimate,
+            m; None: the prior's true error (module docstring).
     """
 
     error_angle_scale: float = 0.05
@@ -68,6 +78,7 @@ class TaskConfig:
     hard_force_limit: float = 30.0
     workspace_radius: float = 0.25
     termination_penalty: float = 0.0
+    prior_error: float | None = None
 
     def __post_init__(self) -> None:
         check_number("task.error_angle_scale", self.error_angle_scale, 0.0, 1.0)
@@ -80,6 +91,8 @@ class TaskConfig:
         check_number("task.hard_force_limit", self.hard_force_limit, 1.0, 200.0)
         check_number("task.workspace_radius", self.workspace_radius, 0.05, 1.0)
         check_number("task.termination_penalty", self.termination_penalty, 0.0, 100.0)
+        if self.prior_error is not None:
+            check_number("task.prior_error", self.prior_error, 0.0, self.error_cap, low_open=True)
 
 
 @dataclass(frozen=True)
@@ -94,6 +107,7 @@ class StepFacts:
         shell_contact: the object reached the rigid shell through the skin.
         hinge_distance: distance of the fingertip's sensor origin from the hinge pin, m.
         action: the normalised action.
+        measurements: measurements in the estimate (0: it is the prior).
     """
 
     position_error: float
@@ -103,6 +117,7 @@ class StepFacts:
     shell_contact: bool
     hinge_distance: float
     action: np.ndarray
+    measurements: int
 
 
 class AxisEstimationTask:
@@ -120,14 +135,21 @@ class AxisEstimationTask:
         return float(min(error, self.config.error_cap))
 
     def initialize_episode(self, position_error: float, angle_error: float) -> None:
-        """Start an episode from the errors of the estimate at reset (the prior's)."""
-        self._previous_error = self.combined_error(position_error, angle_error)
+        """Start an episode from the errors of the estimate at reset (the prior's), or from
+        ``prior_error`` when it is set."""
+        if self.config.prior_error is not None:
+            self._previous_error = self.config.prior_error
+        else:
+            self._previous_error = self.combined_error(position_error, angle_error)
 
     def get_reward(self, facts: StepFacts) -> tuple[float, dict[str, float]]:
         """Reward for one step and its terms, which sum to the reward; a step that fails
         (:meth:`get_termination`) pays the termination penalty."""
         cfg = self.config
-        error = self.combined_error(facts.position_error, facts.angle_error)
+        if cfg.prior_error is not None and facts.measurements == 0:
+            error = cfg.prior_error
+        else:
+            error = self.combined_error(facts.position_error, facts.angle_error)
         error_reduction = (self._previous_error - error) / cfg.error_scale
         self._previous_error = error
         excess = max(facts.max_force - facts.force_limit, 0.0) / facts.force_limit
