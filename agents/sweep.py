@@ -47,6 +47,7 @@ import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
 
 from .cli import EXPECTED_ERRORS, check_env_id, make_parser, run_main
+from .seeds import TEST_SEED
 from .train import ALGOS, check_hyperparameters, latest_checkpoint, load_hyperparameters, make_env
 
 SWEEP_KEYS = {
@@ -64,7 +65,7 @@ SWEEP_KEYS = {
     "cpus_per_job": "CPUs each job declares to Ray (default 1)",
 }
 TRAIN_ARGS = ("n_envs", "eval_freq", "eval_episodes", "checkpoint_freq", "config_path")
-EVALUATION_DEFAULTS = {"episodes": 20, "seed": 1000, "model": "final_model"}
+EVALUATION_DEFAULTS = {"episodes": 20, "seed": TEST_SEED, "model": "final_model"}
 MODELS = ("final_model", "best_model")
 
 
