@@ -110,9 +110,7 @@ def test_prior_error_scores_the_prior_by_a_fixed_error():
     for prior_error in (None, 0.01):
         task = AxisEstimationTask(TaskConfig(prior_error=prior_error))
         task.initialize_episode(0.012, 0.0)
-        rewards = [
-            task.get_reward(facts(position_error=p, measurements=m))[0] for p, m in errors
-        ]
+        rewards = [task.get_reward(facts(position_error=p, measurements=m))[0] for p, m in errors]
         returns[prior_error] = sum(rewards)
         if prior_error is not None:
             assert rewards[:2] == [0.0, 0.0]
