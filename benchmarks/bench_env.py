@@ -41,15 +41,17 @@ import pybullet as p  # noqa: E402
 
 import tactile_gym  # noqa: E402, F401 - registers the envs
 from agents.scripted import scripted_policy  # noqa: E402
-from tactile_gym.sim import _kernels  # noqa: E402
+from tactile_gym.sim import _kernels, _pose_kernels  # noqa: E402
 from tactile_gym.sim.scene import ProbeScene  # noqa: E402
 
-#: The calls each part of ``--profile`` times: (owner, attribute names).
+#: The calls each part of ``--profile`` times: ((owner, attribute names), ...).
 PARTS = {
-    "skin kernels": (_kernels, ("select", "substep", "evaluate", "commit", "advance")),
+    "skin kernels": (
+        (_kernels, ("select", "substep", "evaluate", "commit")),
+        (_pose_kernels, ("advance", "link_pose")),
+    ),
     "PyBullet": (
-        p,
-        ("stepSimulation", "getJointState", "applyExternalForce", "applyExternalTorque"),
+        (p, ("stepSimulation", "getJointState", "applyExternalForce", "applyExternalTorque")),
     ),
 }
 
@@ -148,10 +150,11 @@ def profile(env_id: str, steps: int) -> str:
     """Where a control step of the scripted policy goes (see the module docstring)."""
     timers = {name: _Timer() for name in (*PARTS, "control_step")}
     originals = []
-    for name, (owner, attributes) in PARTS.items():
-        for attribute in attributes:
-            originals.append((owner, attribute, getattr(owner, attribute)))
-            setattr(owner, attribute, timers[name].wrap(getattr(owner, attribute)))
+    for name, owners in PARTS.items():
+        for owner, attributes in owners:
+            for attribute in attributes:
+                originals.append((owner, attribute, getattr(owner, attribute)))
+                setattr(owner, attribute, timers[name].wrap(getattr(owner, attribute)))
     originals.append((ProbeScene, "control_step", ProbeScene.control_step))
     ProbeScene.control_step = timers["control_step"].wrap(ProbeScene.control_step)
     try:
