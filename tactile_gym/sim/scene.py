@@ -167,6 +167,8 @@ class ProbeScene:
         self._pose[:3] = np.eye(3)
         self._pose[3] = [0.0, 0.0, 0.2]
         self._motion = np.zeros((4, 3))  # per-substep rotation and translation
+        self._orientation_key = b""  # the rotation ``_orientation`` was converted from
+        self._orientation = np.zeros(4)
         self._reaction = np.zeros((3, 3))  # on the free link: force, torque, centre
         self._fingertip_visual = self._make_fingertip_visual()
         self._closed = False
@@ -437,7 +439,13 @@ class ProbeScene:
     @property
     def fingertip_orientation(self) -> np.ndarray:
         """(4,) quaternion x y z w, sensor to world."""
-        return matrix_to_quaternion(self._pose[:3])
+        # Converted again only when the rotation changed: the observation reads it every
+        # control step, and most steps do not turn the fingertip.
+        key = self._pose[:3].tobytes()
+        if key != self._orientation_key:
+            self._orientation = matrix_to_quaternion(self._pose[:3])
+            self._orientation_key = key
+        return self._orientation.copy()
 
     @property
     def fingertip_rotation(self) -> np.ndarray:
