@@ -59,6 +59,7 @@ from tactile_gym.sensing import (
     SensorConfig,
     Tare,
 )
+from tactile_gym.sensing.vec3 import norm
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
 from tactile_gym.sim.scene import FORCE_LIMIT
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
@@ -561,7 +562,7 @@ class HingeProbeEnv(gym.Env):
         self._wrench = self._tare.compensate(reading, rotation)
         if not self.config.tare_action:
             return {}
-        refused = tare and float(np.linalg.norm(self._wrench[:3])) >= TOUCH_FORCE
+        refused = tare and norm(self._wrench[:3]) >= TOUCH_FORCE
         if tare and not refused:
             self._tare.take(reading, rotation)
             self._tare_step = self._steps + 1
@@ -635,15 +636,13 @@ class HingeProbeEnv(gym.Env):
         """What the task judges a step by (``StepFacts``), from the truth and the step."""
         position_error, angle_error = self._true_errors()
         pin, _ = self._scene.true_axis
-        offset = self._scene.fingertip_position - pin
         return StepFacts(
             position_error=position_error,
             angle_error=angle_error,
             max_force=float(step_info.max_force),
             force_limit=float(self._scene.force_limit),
             shell_contact=bool(step_info.shell_contact),
-            # np.linalg.norm's arithmetic (sqrt of the dot product) without its call overhead.
-            hinge_distance=math.sqrt(offset.dot(offset)),
+            hinge_distance=norm(self._scene.fingertip_position - pin),
             action=action,
         )
 
