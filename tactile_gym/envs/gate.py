@@ -357,7 +357,7 @@ class MeasurementGate:
         r0, p0 = self._pose
         # An unturned fingertip's rotation vector would be exactly 0 (R R^T is symmetric to
         # the bit); most steps do not turn it.
-        turned = 0.0 if np.array_equal(rotation, r0) else norm(matrix_to_rotvec(rotation @ r0.T))
+        turned = 0.0 if (rotation == r0).all() else norm(matrix_to_rotvec(rotation @ r0.T))
         return norm(position - p0), turned
 
     def _reject(self, why: str) -> None:

@@ -658,7 +658,7 @@ class HingeProbeEnv(gym.Env):
             "position_error": position_error,
             "angle_error": angle_error,
             "n_measurements": len(self.pipeline.measurements),
-            "true_axis_point": point.copy(),
-            "true_axis_direction": direction.copy(),
+            "true_axis_point": point,  # the scene's copies
+            "true_axis_direction": direction,
             "joint_angle": float(self._scene.joint_angle),
         }

@@ -82,7 +82,7 @@ class Touch:
     @property
     def observable(self) -> bool:
         """Whether the edge direction is defined."""
-        return bool(np.all(np.isfinite(self.edge)))
+        return bool(np.isfinite(self.edge).all())
 
 
 class TouchSensor:

@@ -104,7 +104,7 @@ def _rotation(value, name: str) -> np.ndarray:
 
 def _point(v, name: str) -> np.ndarray:
     v = np.asarray(v, dtype=float)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
+    if v.shape != (3,) or not np.isfinite(v).all():
         raise ValueError(f"{name} must be 3 finite numbers (m, world frame), got {v}")
     return v
 
@@ -279,7 +279,7 @@ class ProbeScene:
         motion = self._motion
         motion[3] = dp / n
         ang = 0.0
-        if np.array_equal(r_target, pose[:3]):
+        if (r_target == pose[:3]).all():
             # No turn. (The rotation vector of R R^T would be exactly 0: NumPy's product is
             # symmetric to the bit.)
             motion[:3] = _IDENTITY
@@ -473,7 +473,7 @@ class ProbeScene:
 
     @property
     def true_axis(self) -> tuple[np.ndarray, np.ndarray]:
-        """(hinge pin centre, unit axis direction), world frame."""
+        """(hinge pin centre, unit axis direction), world frame; fresh copies."""
         return self._object.true_axis
 
     @property
