@@ -24,6 +24,7 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
+from tactile_gym.sensing.vec3 import norm
 from tactile_gym.validation import check_choice
 
 __all__ = [
@@ -166,7 +167,7 @@ class ContactObs(ObservationGroup):
     @property
     def has_edge(self) -> bool:
         """Whether ``edge`` is defined (a unit vector rather than zeros)."""
-        return bool(np.linalg.norm(self.edge) > 0.5)
+        return norm(np.asarray(self.edge, dtype=float)) > 0.5
 
 
 @dataclass(frozen=True, eq=False)

@@ -42,6 +42,7 @@ from tactile_gym.envs.observation import (
     WrenchObs,
 )
 from tactile_gym.sensing import RELEASE_FORCE, PressConfig, PressController
+from tactile_gym.sensing.vec3 import cross, norm
 from tactile_gym.spatial import quaternion_to_matrix
 
 __all__ = [
@@ -93,13 +94,13 @@ class TouchReading:
             rotation=rotation,
             touching=bool(contact.touching > 0.5),
             point=contact.point,
-            edge=edge / np.linalg.norm(edge) if contact.has_edge else None,
+            edge=edge / norm(edge) if contact.has_edge else None,
             measurements=int(round(ProgressObs.read(obs).measurements)),
         )
 
     @property
     def magnitude(self) -> float:
-        return float(np.linalg.norm(self.force))
+        return norm(self.force)
 
 
 @dataclass
@@ -121,8 +122,8 @@ class ProbeFrame:
         """Unit vector in the face plane from the edge toward the face's interior."""
         if self.edge is None:
             return None
-        v = np.cross(self.normal, self.edge)
-        return v / np.linalg.norm(v)
+        v = np.array(cross(self.normal.tolist(), self.edge.tolist()))
+        return v / norm(v)
 
     def update(self, reading: TouchReading) -> None:
         """Take in the reading at the end of a still press.
