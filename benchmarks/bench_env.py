@@ -1,11 +1,12 @@
-"""Env throughput of the v1 ids, against bare physics on the same scene in the same run.
+"""Env throughput of the env ids, against bare physics on the same scene in the same run.
 
-    python benchmarks/bench_env.py [--steps 400] [--ids tactile_gym/HingeProbe-v1 ...] [--profile]
+    python benchmarks/bench_env.py [--steps 400] [--ids tactile_gym/HingeProbe-v2 ...] [--profile]
 
 One markdown table per id. Rows: one process with random actions (mostly free motion), one
 process with the scripted baseline (``agents.scripted.scripted_policy``: presses, turns), and
 a 2-process async vector env with random actions (its rate is the total of both envs).
-Resets are not timed. Times are this thread's CPU time (``time.thread_time``), so other
+Resets are not timed, nor a short scripted episode before the rows (a process's first steps
+load the compiled kernels). Times are this thread's CPU time (``time.thread_time``), so other
 processes sharing the cores do not count; the vector env's row is wall time (its envs run in
 worker processes). The baseline is ``stepSimulation`` alone on the scene the row's env
 used, times the substeps of one control step; the ratio says how many times dearer a control
@@ -104,6 +105,20 @@ def time_single(env_id: str, policy: str, steps: int, clock=time.thread_time) ->
     }
 
 
+def warm_up(env_id: str, steps: int = 40) -> None:
+    """A short scripted episode, untimed: a process's first steps load the compiled kernels
+    from numba's cache (about 25 ms), which is no control step's cost."""
+    env = gym.make(env_id)
+    obs, _ = env.reset(seed=0)
+    scripted = scripted_policy(env)
+    scripted.reset()
+    for _ in range(steps):
+        obs, _, terminated, truncated, _ = env.step(scripted.get_action(obs))
+        if terminated or truncated:
+            break
+    env.close()
+
+
 def time_vector(env_id: str, steps: int) -> dict[str, float]:
     """Total throughput of a 2-process async vector env with random actions."""
     envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="async")
@@ -184,6 +199,7 @@ def profile(env_id: str, steps: int) -> str:
 
 def table(env_id: str, steps: int) -> str:
     primitive = gym.make(env_id).action_space.shape == (3,)
+    warm_up(env_id)
     rows = {
         "1 process, random actions": time_single(env_id, "random", steps),
         "1 process, scripted policy": time_single(env_id, "scripted", steps),
