@@ -30,6 +30,7 @@ executor hands the env as many components as its action space has.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -69,6 +70,15 @@ UP = np.array([0.0, 0.0, 1.0])
 ACTION_SIZE = 7
 
 
+@functools.lru_cache(maxsize=16)
+def _rotation_of(quaternion: bytes) -> np.ndarray:
+    """The rotation (read-only) of an observed quaternion, given as its float64 bytes: the
+    skills read one every control step, and most steps do not turn the fingertip."""
+    rotation = quaternion_to_matrix(np.frombuffer(quaternion))
+    rotation.flags.writeable = False
+    return rotation
+
+
 @dataclass(frozen=True)
 class TouchReading:
     """The parts of one observation the skills use (world frame)."""
@@ -86,7 +96,7 @@ class TouchReading:
         """The reading of a dict observation (``tactile_gym.envs.observation``)."""
         pose = FingertipPoseObs.read(obs)
         contact = ContactObs.read(obs)
-        rotation = quaternion_to_matrix(pose.quaternion)
+        rotation = _rotation_of(pose.quaternion.tobytes())
         edge = contact.edge
         return cls(
             force=rotation @ WrenchObs.read(obs).force,
