@@ -1,11 +1,12 @@
-"""Env throughput of the v1 ids, against bare physics on the same scene in the same run.
+"""Env throughput of the env ids, against bare physics on the same scene in the same run.
 
-    python benchmarks/bench_env.py [--steps 400] [--ids tactile_gym/HingeProbe-v1 ...] [--profile]
+    python benchmarks/bench_env.py [--steps 400] [--ids tactile_gym/HingeProbe-v2 ...] [--profile]
 
 One markdown table per id. Rows: one process with random actions (mostly free motion), one
 process with the scripted baseline (``agents.scripted.scripted_policy``: presses, turns), and
 a 2-process async vector env with random actions (its rate is the total of both envs).
-Resets are not timed. Times are this thread's CPU time (``time.thread_time``), so other
+Resets are not timed, nor a short scripted episode before the rows (a process's first steps
+load the compiled kernels). Times are this thread's CPU time (``time.thread_time``), so other
 processes sharing the cores do not count; the vector env's row is wall time (its envs run in
 worker processes). The baseline is ``stepSimulation`` alone on the scene the row's env
 used, times the substeps of one control step; the ratio says how many times dearer a control
@@ -41,15 +42,17 @@ import pybullet as p  # noqa: E402
 
 import tactile_gym  # noqa: E402, F401 - registers the envs
 from agents.scripted import scripted_policy  # noqa: E402
-from tactile_gym.sim import _kernels  # noqa: E402
+from tactile_gym.sim import _kernels, _pose_kernels  # noqa: E402
 from tactile_gym.sim.scene import ProbeScene  # noqa: E402
 
-#: The calls each part of ``--profile`` times: (owner, attribute names).
+#: The calls each part of ``--profile`` times: ((owner, attribute names), ...).
 PARTS = {
-    "skin kernels": (_kernels, ("select", "substep", "evaluate", "commit", "advance")),
+    "skin kernels": (
+        (_kernels, ("select", "substep", "evaluate", "commit")),
+        (_pose_kernels, ("advance", "link_pose")),
+    ),
     "PyBullet": (
-        p,
-        ("stepSimulation", "getJointState", "applyExternalForce", "applyExternalTorque"),
+        (p, ("stepSimulation", "getJointState", "applyExternalForce", "applyExternalTorque")),
     ),
 }
 
@@ -102,6 +105,20 @@ def time_single(env_id: str, policy: str, steps: int, clock=time.thread_time) ->
     }
 
 
+def warm_up(env_id: str, steps: int = 40) -> None:
+    """A short scripted episode, untimed: a process's first steps load the compiled kernels
+    from numba's cache (about 25 ms), which is no control step's cost."""
+    env = gym.make(env_id)
+    obs, _ = env.reset(seed=0)
+    scripted = scripted_policy(env)
+    scripted.reset()
+    for _ in range(steps):
+        obs, _, terminated, truncated, _ = env.step(scripted.get_action(obs))
+        if terminated or truncated:
+            break
+    env.close()
+
+
 def time_vector(env_id: str, steps: int) -> dict[str, float]:
     """Total throughput of a 2-process async vector env with random actions."""
     envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="async")
@@ -148,10 +165,11 @@ def profile(env_id: str, steps: int) -> str:
     """Where a control step of the scripted policy goes (see the module docstring)."""
     timers = {name: _Timer() for name in (*PARTS, "control_step")}
     originals = []
-    for name, (owner, attributes) in PARTS.items():
-        for attribute in attributes:
-            originals.append((owner, attribute, getattr(owner, attribute)))
-            setattr(owner, attribute, timers[name].wrap(getattr(owner, attribute)))
+    for name, owners in PARTS.items():
+        for owner, attributes in owners:
+            for attribute in attributes:
+                originals.append((owner, attribute, getattr(owner, attribute)))
+                setattr(owner, attribute, timers[name].wrap(getattr(owner, attribute)))
     originals.append((ProbeScene, "control_step", ProbeScene.control_step))
     ProbeScene.control_step = timers["control_step"].wrap(ProbeScene.control_step)
     try:
@@ -181,6 +199,7 @@ def profile(env_id: str, steps: int) -> str:
 
 def table(env_id: str, steps: int) -> str:
     primitive = gym.make(env_id).action_space.shape == (3,)
+    warm_up(env_id)
     rows = {
         "1 process, random actions": time_single(env_id, "random", steps),
         "1 process, scripted policy": time_single(env_id, "scripted", steps),

@@ -41,7 +41,11 @@ class DeltaPoseController:
             rotation: (3, 3) fingertip rotation, sensor to world.
         """
         translation = np.asarray(action[:3], dtype=float) * self.max_translation
-        turn = rotvec_to_matrix(np.asarray(action[3:6], dtype=float) * self.max_rotation)
+        rotvec = np.asarray(action[3:6], dtype=float) * self.max_rotation
         pivot_world = position + rotation @ self.pivot
-        new_position = pivot_world + turn @ (position - pivot_world) + translation
-        return new_position, turn @ rotation
+        arm = position - pivot_world
+        if not rotvec.any():
+            # No turn (``rotvec_to_matrix`` gives the identity, whose products change nothing).
+            return pivot_world + arm + translation, rotation.copy()
+        turn = rotvec_to_matrix(rotvec)
+        return pivot_world + turn @ arm + translation, turn @ rotation

@@ -50,6 +50,7 @@ import numpy as np
 
 from tactile_gym.estimation import AxisEstimate
 from tactile_gym.sensing import TOUCH_FORCE, Touch, TouchSensor, indentation_depth
+from tactile_gym.sensing.vec3 import norm
 from tactile_gym.spatial import matrix_to_rotvec
 from tactile_gym.validation import check_bool, check_int, check_number, check_range
 
@@ -322,7 +323,7 @@ class MeasurementGate:
         moved, turned = self._motion(rotation, position)
         before = self._pose
         self._pose = (rotation.copy(), position.copy())
-        magnitude = float(np.linalg.norm(touch.force))
+        magnitude = norm(touch.force)
         if not touch.valid:  # |f| below TOUCH_FORCE, or no contact explains the wrench
             self._touch_pose, self._pressed = None, False
             self._window = []
@@ -354,9 +355,10 @@ class MeasurementGate:
         if self._pose is None:
             return np.inf, np.inf
         r0, p0 = self._pose
-        return float(np.linalg.norm(position - p0)), float(
-            np.linalg.norm(matrix_to_rotvec(rotation @ r0.T))
-        )
+        # An unturned fingertip's rotation vector would be exactly 0 (R R^T is symmetric to
+        # the bit); most steps do not turn it.
+        turned = 0.0 if (rotation == r0).all() else norm(matrix_to_rotvec(rotation @ r0.T))
+        return norm(position - p0), turned
 
     def _reject(self, why: str) -> None:
         self.last_rejection = why

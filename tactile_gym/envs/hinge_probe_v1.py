@@ -14,6 +14,7 @@ measurement pipeline (``measurement.py``: touch sensing, gate and estimator), th
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import sys
 from dataclasses import dataclass, field
@@ -58,10 +59,10 @@ from tactile_gym.sensing import (
     SensorConfig,
     Tare,
 )
+from tactile_gym.sensing.vec3 import norm
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
 from tactile_gym.sim.scene import FORCE_LIMIT
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
-from tactile_gym.spatial import matrix_to_quaternion
 from tactile_gym.validation import (
     build_config,
     check_bool,
@@ -440,6 +441,9 @@ class HingeProbeEnv(gym.Env):
         )
         self._guard = StepGuard(self.action_space)
         self._scene: ProbeScene | None = None
+        # The estimate ``_errors`` belong to (``_true_errors``).
+        self._errors_of: AxisEstimate | None = None
+        self._errors = (math.inf, math.pi / 2)
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -483,6 +487,7 @@ class HingeProbeEnv(gym.Env):
         self._wrench = self._tare.compensate(reading, scene.fingertip_rotation)
         self.pipeline.reset(self._wrench, scene.fingertip_rotation, scene.fingertip_position)
         self._guard.begin()
+        self._errors_of = None  # a new episode's truth: no errors computed for it yet
         position_error, angle_error = self._true_errors()
         self.task.initialize_episode(position_error, angle_error)
         return self._observation(), self._true_info(position_error, angle_error)
@@ -557,7 +562,7 @@ class HingeProbeEnv(gym.Env):
         self._wrench = self._tare.compensate(reading, rotation)
         if not self.config.tare_action:
             return {}
-        refused = tare and float(np.linalg.norm(self._wrench[:3])) >= TOUCH_FORCE
+        refused = tare and norm(self._wrench[:3]) >= TOUCH_FORCE
         if tare and not refused:
             self._tare.take(reading, rotation)
             self._tare_step = self._steps + 1
@@ -599,9 +604,7 @@ class HingeProbeEnv(gym.Env):
         groups = (
             ContactObs.from_touch(pipeline.touch),
             EstimateObs.from_estimate(pipeline.estimate),
-            FingertipPoseObs(
-                scene.fingertip_position, matrix_to_quaternion(scene.fingertip_rotation)
-            ),
+            FingertipPoseObs(scene.fingertip_position, scene.fingertip_orientation),
             LastMeasurementObs.from_measurement(last),
             ProgressObs(
                 span=pipeline.span,
@@ -619,9 +622,15 @@ class HingeProbeEnv(gym.Env):
     # Only these methods read the simulator's truth; it feeds the reward, termination and
     # info, never the measurement pipeline (tests/test_ground_truth.py audits this).
     def _true_errors(self) -> tuple[float, float]:
-        point, direction = self._scene.true_axis
-        position, angle = axis_error(self.pipeline.estimate, point, direction, point)
-        return float(position), float(angle)
+        """The current estimate's errors. The true axis is fixed over an episode and the
+        estimate changes only with a measurement, so they are computed once per estimate."""
+        estimate = self.pipeline.estimate
+        if estimate is not self._errors_of:
+            point, direction = self._scene.true_axis
+            position, angle = axis_error(estimate, point, direction, point)
+            self._errors = (float(position), float(angle))
+            self._errors_of = estimate
+        return self._errors
 
     def _true_facts(self, step_info, action: np.ndarray) -> StepFacts:
         """What the task judges a step by (``StepFacts``), from the truth and the step."""
@@ -633,7 +642,7 @@ class HingeProbeEnv(gym.Env):
             max_force=float(step_info.max_force),
             force_limit=float(self._scene.force_limit),
             shell_contact=bool(step_info.shell_contact),
-            hinge_distance=float(np.linalg.norm(self._scene.fingertip_position - pin)),
+            hinge_distance=norm(self._scene.fingertip_position - pin),
             action=action,
             measurements=len(self.pipeline.measurements),
         )
@@ -650,7 +659,7 @@ class HingeProbeEnv(gym.Env):
             "position_error": position_error,
             "angle_error": angle_error,
             "n_measurements": len(self.pipeline.measurements),
-            "true_axis_point": point.copy(),
-            "true_axis_direction": direction.copy(),
+            "true_axis_point": point,  # the scene's copies
+            "true_axis_direction": direction,
             "joint_angle": float(self._scene.joint_angle),
         }

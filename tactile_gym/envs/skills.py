@@ -30,6 +30,7 @@ executor hands the env as many components as its action space has.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,6 +43,7 @@ from tactile_gym.envs.observation import (
     WrenchObs,
 )
 from tactile_gym.sensing import RELEASE_FORCE, PressConfig, PressController
+from tactile_gym.sensing.vec3 import cross, norm
 from tactile_gym.spatial import quaternion_to_matrix
 
 __all__ = [
@@ -68,6 +70,15 @@ UP = np.array([0.0, 0.0, 1.0])
 ACTION_SIZE = 7
 
 
+@functools.lru_cache(maxsize=16)
+def _rotation_of(quaternion: bytes) -> np.ndarray:
+    """The rotation (read-only) of an observed quaternion, given as its float64 bytes: the
+    skills read one every control step, and most steps do not turn the fingertip."""
+    rotation = quaternion_to_matrix(np.frombuffer(quaternion))
+    rotation.flags.writeable = False
+    return rotation
+
+
 @dataclass(frozen=True)
 class TouchReading:
     """The parts of one observation the skills use (world frame)."""
@@ -85,7 +96,7 @@ class TouchReading:
         """The reading of a dict observation (``tactile_gym.envs.observation``)."""
         pose = FingertipPoseObs.read(obs)
         contact = ContactObs.read(obs)
-        rotation = quaternion_to_matrix(pose.quaternion)
+        rotation = _rotation_of(pose.quaternion.tobytes())
         edge = contact.edge
         return cls(
             force=rotation @ WrenchObs.read(obs).force,
@@ -93,13 +104,13 @@ class TouchReading:
             rotation=rotation,
             touching=bool(contact.touching > 0.5),
             point=contact.point,
-            edge=edge / np.linalg.norm(edge) if contact.has_edge else None,
+            edge=edge / norm(edge) if contact.has_edge else None,
             measurements=int(round(ProgressObs.read(obs).measurements)),
         )
 
     @property
     def magnitude(self) -> float:
-        return float(np.linalg.norm(self.force))
+        return norm(self.force)
 
 
 @dataclass
@@ -121,8 +132,8 @@ class ProbeFrame:
         """Unit vector in the face plane from the edge toward the face's interior."""
         if self.edge is None:
             return None
-        v = np.cross(self.normal, self.edge)
-        return v / np.linalg.norm(v)
+        v = np.array(cross(self.normal.tolist(), self.edge.tolist()))
+        return v / norm(v)
 
     def update(self, reading: TouchReading) -> None:
         """Take in the reading at the end of a still press.

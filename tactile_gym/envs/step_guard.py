@@ -21,6 +21,8 @@ class StepGuard:
 
     def __init__(self, action_space: spaces.Box) -> None:
         self.action_space = action_space
+        self._low = action_space.low.astype(float)
+        self._high = action_space.high.astype(float)
         self._started = False
         self._over = True
 
@@ -53,6 +55,7 @@ class StepGuard:
         space = self.action_space
         if action.shape != space.shape:
             raise ValueError(f"action must have shape {space.shape}, got {action.shape}")
-        if not np.all(np.isfinite(action)):
+        if not np.isfinite(action).all():
             raise ValueError(f"action must be finite, got {action.tolist()}")
-        return np.clip(action.astype(float), space.low, space.high)
+        action = action.astype(float)
+        return np.clip(action, self._low, self._high, out=action)

@@ -46,6 +46,7 @@ __all__ = ["ContactEstimate", "estimate_contact"]
 
 _DEFAULT_GEOMETRY = FingertipGeometry()
 _NAN3 = (math.nan, math.nan, math.nan)
+_NAN_MATRIX = np.full((3, 3), np.nan)
 
 
 @dataclass(frozen=True)
@@ -126,7 +127,7 @@ class ContactEstimate:
             tangential_moment=nan3(),
             edge_direction=nan3(),
             edge_std=EDGE_STD_UNOBSERVABLE,
-            edge_cov=np.full((3, 3), np.nan),
+            edge_cov=_NAN_MATRIX.copy(),
             corrected_point=nan3(),
             indentation=math.nan,
             on_surface=False,

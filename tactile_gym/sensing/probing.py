@@ -38,6 +38,7 @@ import numpy as np
 from tactile_gym.sensing.contact import estimate_contact
 from tactile_gym.sensing.geometry import FingertipGeometry
 from tactile_gym.sensing.sensor import TOUCH_FORCE, SensorConfig
+from tactile_gym.sensing.vec3 import cross, dot
 from tactile_gym.validation import check_int, check_number
 
 __all__ = [
@@ -81,7 +82,7 @@ class Touch:
     @property
     def observable(self) -> bool:
         """Whether the edge direction is defined."""
-        return bool(np.all(np.isfinite(self.edge)))
+        return bool(np.isfinite(self.edge).all())
 
 
 class TouchSensor:
@@ -111,7 +112,7 @@ class TouchSensor:
             position: (3,) sensor origin, world frame, m.
             readings: how many independent readings ``wrench`` averages (noise / sqrt(n)).
         """
-        scale = 1.0 / np.sqrt(readings)
+        scale = 1.0 / math.sqrt(readings)
         est = estimate_contact(
             wrench[:3],
             wrench[3:],
@@ -128,9 +129,11 @@ class TouchSensor:
         edge = _NAN3
         edge_cov = _NAN33
         if est.edge_observable:
-            # Sign of e . (n x f) = det(e, n, f), without a cross product per step.
+            # Sign of e . (n x f), on floats (np.linalg.det of the three cost more than the
+            # rest of this method). An observable edge has |n x f| = |f_t| far above the
+            # rounding, so the sign is the determinant's.
             edge = rotation @ est.edge_direction
-            if np.linalg.det(np.array([edge, normal, force])) < 0.0:
+            if dot(edge.tolist(), cross(normal.tolist(), force.tolist())) < 0.0:
                 edge = -edge
             edge_cov = rotation @ est.edge_cov @ rotation.T
         return Touch(

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.sensing.geometry import FingertipGeometry
+from tactile_gym.sensing.vec3 import cross
 from tactile_gym.validation import check_int, check_number, check_vector
 
 __all__ = [
@@ -182,8 +183,12 @@ def gravity_wrench(
         (6,) force (the weight, world -z, turned into the sensor frame), N, and its moment
         about the sensor origin (``center_of_mass x force``), N m.
     """
-    force = np.asarray(rotation).T @ np.array([0.0, 0.0, -mass * GRAVITY])
-    return np.concatenate([force, np.cross(center_of_mass, force)])
+    # R^T (0, 0, -m g) is the last row of R times -m g; on floats, as ``rotation.T @ ...``
+    # and ``np.cross`` compute it (a sensor reading costs a few of these per control step).
+    weight = -mass * GRAVITY
+    r = np.asarray(rotation)[2].tolist()
+    force = (r[0] * weight, r[1] * weight, r[2] * weight)
+    return np.array([*force, *cross(np.asarray(center_of_mass).tolist(), force)])
 
 
 class SensorErrors:
@@ -207,6 +212,7 @@ class SensorErrors:
         self._noise = np.repeat([c.force_noise_std, c.moment_noise_std], 3)
         self._offset_std = np.repeat([c.force_offset_std, c.moment_offset_std], 3)
         self._drift_std = np.repeat([c.force_drift, c.moment_drift], 3) * math.sqrt(period)
+        self._drifts = bool(np.any(self._drift_std > 0.0))
         self._com = np.asarray(c.center_of_mass)
         self.offset = np.zeros(6)
         self.drift = np.zeros(6)
@@ -236,7 +242,7 @@ class SensorErrors:
         """
         check_int("samples", samples, 1, 100_000)
         noise = rng.standard_normal(6) * (self._noise / math.sqrt(samples))
-        if np.any(self._drift_std > 0.0):
+        if self._drifts:
             self.drift = self.drift + rng.standard_normal(6) * self._drift_std
         load = wrench
         if self.config.mass > 0.0:

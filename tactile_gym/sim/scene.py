@@ -32,6 +32,7 @@ import numpy as np
 import pybullet as p
 
 from tactile_gym.sensing import FingertipGeometry, SensorConfig, SensorErrors
+from tactile_gym.sensing.vec3 import norm
 from tactile_gym.sim import _pose_kernels
 from tactile_gym.sim.camera import Camera, frame_box
 from tactile_gym.sim.config import ObjectConfig, SkinConfig
@@ -50,6 +51,7 @@ __all__ = ["FORCE_LIMIT", "ProbeScene", "StepInfo"]
 
 #: Default guarded-move limit on |f|, N.
 FORCE_LIMIT = 8.0
+_IDENTITY = np.eye(3)
 
 
 @dataclass(frozen=True)
@@ -91,24 +93,18 @@ def _rotation(value, name: str) -> np.ndarray:
         if not (all(abs(x) <= 1e-6 for x in gram) and det > 0.0):
             raise ValueError(f"{name} must be a rotation matrix (orthonormal, det +1), got {r}")
         return r
-    norm = float(np.linalg.norm(r)) if r.shape == (4,) else 0.0
-    if not (math.isfinite(norm) and norm >= 1e-9):
+    length = float(np.linalg.norm(r)) if r.shape == (4,) else 0.0
+    if not (math.isfinite(length) and length >= 1e-9):
         raise ValueError(
             f"{name} must be a (3, 3) rotation matrix or a finite non-zero quaternion "
             f"(x, y, z, w), got {r}"
         )
-    return quaternion_to_matrix(r / norm)
-
-
-def _norm(v: np.ndarray) -> float:
-    """``np.linalg.norm`` of a 1-D float vector, to the bit (it is sqrt(v.v)), without its
-    per-call overhead."""
-    return math.sqrt(v.dot(v))
+    return quaternion_to_matrix(r / length)
 
 
 def _point(v, name: str) -> np.ndarray:
     v = np.asarray(v, dtype=float)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
+    if v.shape != (3,) or not np.isfinite(v).all():
         raise ValueError(f"{name} must be 3 finite numbers (m, world frame), got {v}")
     return v
 
@@ -167,6 +163,8 @@ class ProbeScene:
         self._pose[:3] = np.eye(3)
         self._pose[3] = [0.0, 0.0, 0.2]
         self._motion = np.zeros((4, 3))  # per-substep rotation and translation
+        self._orientation_key = b""  # the rotation ``_orientation`` was converted from
+        self._orientation = np.zeros(4)
         self._reaction = np.zeros((3, 3))  # on the free link: force, torque, centre
         self._fingertip_visual = self._make_fingertip_visual()
         self._closed = False
@@ -274,18 +272,24 @@ class ProbeScene:
         pose = self._pose
 
         dp = target - pose[3]
-        dist = _norm(dp)
+        dist = norm(dp)
         if dist > self.max_speed * horizon:
             dp *= self.max_speed * horizon / dist
             dist = self.max_speed * horizon
-        rv = matrix_to_rotvec(r_target @ pose[:3].T)
-        ang = _norm(rv)
-        if ang > self.max_angular_speed * horizon:
-            rv *= self.max_angular_speed * horizon / ang
-            ang = self.max_angular_speed * horizon
         motion = self._motion
         motion[3] = dp / n
-        motion[:3] = rotvec_to_matrix(rv / n)
+        ang = 0.0
+        if (r_target == pose[:3]).all():
+            # No turn. (The rotation vector of R R^T would be exactly 0: NumPy's product is
+            # symmetric to the bit.)
+            motion[:3] = _IDENTITY
+        else:
+            rv = matrix_to_rotvec(r_target @ pose[:3].T)
+            ang = norm(rv)
+            if ang > self.max_angular_speed * horizon:
+                rv *= self.max_angular_speed * horizon / ang
+                ang = self.max_angular_speed * horizon
+            motion[:3] = rotvec_to_matrix(rv / n)
         turning = ang > 0.0
 
         obj = self._object
@@ -294,7 +298,7 @@ class ProbeScene:
         obj.sync()
         angle = obj.joint_angle
         # Bound on any node's displacement per substep (translation + rotation x lever).
-        step_len = _norm(motion[3]) + ang / n * skin.reach + 1e-9
+        step_len = norm(motion[3]) + ang / n * skin.reach + 1e-9
         obj_budget = abs(obj.joint_velocity) * horizon * reach_obj + 1e-3
         # An empty broad phase of an earlier step still holds while it covers this step's
         # motion too (no node has a history to keep: the next selection records the frames).
@@ -437,7 +441,13 @@ class ProbeScene:
     @property
     def fingertip_orientation(self) -> np.ndarray:
         """(4,) quaternion x y z w, sensor to world."""
-        return matrix_to_quaternion(self._pose[:3])
+        # Converted again only when the rotation changed: the observation reads it every
+        # control step, and most steps do not turn the fingertip.
+        key = self._pose[:3].tobytes()
+        if key != self._orientation_key:
+            self._orientation = matrix_to_quaternion(self._pose[:3])
+            self._orientation_key = key
+        return self._orientation.copy()
 
     @property
     def fingertip_rotation(self) -> np.ndarray:
@@ -463,7 +473,7 @@ class ProbeScene:
 
     @property
     def true_axis(self) -> tuple[np.ndarray, np.ndarray]:
-        """(hinge pin centre, unit axis direction), world frame."""
+        """(hinge pin centre, unit axis direction), world frame; fresh copies."""
         return self._object.true_axis
 
     @property

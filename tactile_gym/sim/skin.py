@@ -346,6 +346,10 @@ class SoftSkin:
         # Frames (x_primitive = A x_sensor + b) of every primitive at the last committed
         # pose (or ``select``): where a node came from, to find where it entered a box.
         self._prev_frames = np.zeros((0, 4, 3))
+        # The primitives ``_shapes`` and ``_prim_info`` describe (``_kernel_shapes``).
+        self._shapes_of: list = []
+        self._shapes = np.zeros((0, 4))
+        self._prim_info = np.zeros((0, 2), dtype=np.int64)
         # The committed contact: a Contact, or the kernel's raw output (built on demand).
         self._contact: Contact | None = _EMPTY
         self._raw: tuple | None = None
@@ -404,9 +408,7 @@ class SoftSkin:
                 primitive expected before the next ``select``, m.
         """
         reach = float(motion_bound + self.config.margin)
-        shapes, kinds = zip(*(_shape(prim) for prim in primitives), strict=True)
-        shapes = np.array(shapes, dtype=float)
-        prim_info = np.array([range(len(primitives)), kinds], dtype=np.int64).T.copy()
+        shapes, prim_info = self._kernel_shapes(primitives)
         poses = np.empty((len(primitives) + 1, 4, 3))
         _fill_poses(poses, primitives, rotation, position)
         nodes, points, areas, dist, hits, frames, clearance = _kernels.select(
@@ -427,8 +429,7 @@ class SoftSkin:
         # teleport, where every node then lacks a history).
         self._prev_frames = frames
         near = np.flatnonzero(hits)
-        near_poses = np.empty((len(near) + 1, 4, 3))
-        _fill_poses(near_poses, [primitives[j] for j in near], rotation, position)
+        near_poses = poses[np.concatenate(([0], near + 1))]  # the fingertip's, then theirs
         sel = Selection(
             nodes=nodes,
             points=points,
@@ -461,6 +462,18 @@ class SoftSkin:
             self.thickness,
         )
         return sel
+
+    def _kernel_shapes(self, primitives: list) -> tuple[np.ndarray, np.ndarray]:
+        """``shapes`` and ``prim_info`` of the primitives for the kernels. A primitive's shape
+        does not change, so they are built again only for other primitives (the scene
+        selects with the same list every control step)."""
+        known = self._shapes_of
+        if len(known) != len(primitives) or any(a is not b for a, b in zip(known, primitives)):
+            rows, kinds = zip(*(_shape(prim) for prim in primitives), strict=True)
+            self._shapes = np.array(rows, dtype=float)
+            self._prim_info = np.array(list(enumerate(kinds)), dtype=np.int64)
+            self._shapes_of = list(primitives)
+        return self._shapes, self._prim_info
 
     # --- narrow phase and forces ---------------------------------------------------------
 
