@@ -17,11 +17,14 @@ def progress_lines(total_steps: int, interval: float = 30.0):
         def _on_training_start(self) -> None:
             self.first = self.num_timesteps
             self.start = self.last = time.monotonic()
+            self.reached = False
 
         def _on_step(self) -> bool:
             now, done = time.monotonic(), self.num_timesteps
-            if now - self.last >= interval or done >= total_steps:
-                self.last = now
+            # SB3 finishes its last rollout past the total: say so once, not every step.
+            reached = done >= total_steps and not self.reached
+            if now - self.last >= interval or reached:
+                self.last, self.reached = now, self.reached or reached
                 rate = (done - self.first) / max(now - self.start, 1e-9)
                 eta = max(total_steps - done, 0) / rate if rate > 0 else math.inf
                 print(

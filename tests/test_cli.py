@@ -223,3 +223,16 @@ def test_pybullets_start_up_lines_are_kept_out(tmp_path):
     output = result.stdout + result.stderr
     assert "pybullet build time" not in output and "argv[0]=" not in output, output
     assert "| random | 1 |" in result.stdout
+
+
+def test_progress_lines_report_the_end_once(capsys):
+    """SB3 runs its last rollout past the total; the log says so once, not every step."""
+    from agents.progress import progress_lines
+
+    callback = progress_lines(total_steps=10, interval=1e9)
+    callback._on_training_start()
+    for done in (2, 8, 10, 12, 14):
+        callback.num_timesteps = done
+        callback._on_step()
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("10/10 env steps (100 %)")
