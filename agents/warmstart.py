@@ -147,7 +147,8 @@ def behaviour_clone(
     """Clone ``actions`` into the actor of an SB3 ``ActorCriticPolicy`` (module docstring).
 
     Args:
-        policy: the PPO policy; its ``log_std`` is set to ``log(action_std)`` and left there.
+        policy: the PPO policy; its ``log_std`` is then set so that the actions' standard
+            deviation is ``action_std`` (on average over ``obs`` for gSDE) and left there.
         obs: the observations as the policy sees them (tensors, normalised).
         actions: ``(T, A)`` tensor of the demonstrated actions.
         epochs, batch_size, learning_rate: the fit's passes, minibatch size and Adam step.
@@ -157,7 +158,8 @@ def behaviour_clone(
     Returns:
         The mean negative log-likelihood of each epoch.
     """
-    policy.log_std.data.fill_(math.log(action_std))
+    import torch
+
     critic = ("value_net.", "mlp_extractor.value_net.")
     params = [
         p
@@ -166,12 +168,29 @@ def behaviour_clone(
     ]
 
     def nll(index):
-        _, log_prob, _ = policy.evaluate_actions(_subset(obs, index), actions[index])
-        return -log_prob.mean()
+        mean = policy.get_distribution(_subset(obs, index)).distribution.mean
+        normal = torch.distributions.Normal(mean, action_std)
+        return -normal.log_prob(actions[index]).sum(dim=-1).mean()
 
-    return _minimise(
+    losses = _minimise(
         policy, params, nll, len(actions), epochs, batch_size, learning_rate, generator
     )
+    policy.log_std.data.fill_(math.log(action_std / _noise_scale(policy, obs)))
+    return losses
+
+
+def _noise_scale(policy, obs) -> float:
+    """What scales ``exp(log_std)`` into the actions' standard deviation: 1 for a Gaussian
+    policy; for gSDE (``use_sde``), whose noise is the actor's latent features times a random
+    matrix of that deviation, the root mean square norm of the latent over ``obs``."""
+    import torch
+
+    if not policy.use_sde:
+        return 1.0
+    with torch.no_grad():
+        features = policy.extract_features(obs, policy.pi_features_extractor)
+        latent = policy.mlp_extractor.forward_actor(features)
+    return float(latent.pow(2).sum(dim=-1).mean().sqrt())
 
 
 def fit_values(

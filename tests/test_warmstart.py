@@ -21,14 +21,14 @@ def demos():
     return record_demos(ENV_ID, 3, first_seed=40, env_kwargs=SHORT)
 
 
-def _model(seed: int = 0):
+def _model(seed: int = 0, **kwargs):
     from stable_baselines3 import PPO
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import VecNormalize
 
     env = VecNormalize(make_vec_env(ENV_ID, n_envs=1, seed=seed, env_kwargs=SHORT))
     return PPO("MultiInputPolicy", env, n_steps=16, batch_size=16, seed=seed,
-               policy_kwargs={"net_arch": [32, 32]})  # fmt: skip
+               policy_kwargs={"net_arch": [32, 32]}, **kwargs)  # fmt: skip
 
 
 def _action_error(model, demos) -> float:
@@ -48,6 +48,27 @@ def test_cloning_lowers_its_loss_and_moves_the_policy_to_the_demonstrations(demo
     assert stats["value_loss"][1] < stats["value_loss"][0]
     assert _action_error(model, demos) < 0.5 * before
     assert np.exp(model.policy.log_std.detach().numpy()) == pytest.approx(0.3)
+    model.get_env().close()
+
+
+def test_a_gsde_policy_explores_with_the_recipes_deviation(demos):
+    """With gSDE the action noise is the actor's latent times a random matrix, so the clone's
+    log_std is scaled by the latent's size: on the demonstrations' observations the actions'
+    standard deviation (Monte Carlo over noise matrices) averages action_std."""
+    import torch
+
+    model = _model(use_sde=True)
+    warm_start(model, demos, WarmStart(demos=3, bc_epochs=5, value_epochs=1, action_std=0.3))
+    policy = model.policy
+    obs, _ = policy.obs_to_tensor(model.get_vec_normalize_env().normalize_obs(demos.obs))
+    with torch.no_grad():
+        latent = policy.mlp_extractor.forward_actor(policy.extract_features(obs))
+        draws = []
+        for _ in range(400):
+            policy.reset_noise()
+            draws.append(policy.action_dist.get_noise(latent))
+    std = torch.stack(draws).std(dim=0)  # (samples, actions)
+    assert float(std.pow(2).mean().sqrt()) == pytest.approx(0.3, rel=0.1)
     model.get_env().close()
 
 
