@@ -189,12 +189,13 @@ class _Policy:
         return action.astype(np.float32)
 
 
-def scripted_policy(env):
-    """The scripted baseline of any id (either action mode, v1 or v2); pass ``gym.make(...)``."""
+def scripted_policy(env, config: ProberConfig = ProberConfig()):  # noqa: B008
+    """The scripted baseline of any id (either action mode, v1 or v2); pass ``gym.make(...)``
+    (and, to vary the protocol, its ``config``)."""
     codec = env.get_wrapper_attr("codec")
     if env.action_space.shape == (3,):
-        return _Policy(PrimitiveProber(env.get_wrapper_attr("scales")), codec, True)
-    return _Policy(SkillProber(PrimitiveExecutor.for_env(env.unwrapped)), codec, False)
+        return _Policy(PrimitiveProber(env.get_wrapper_attr("scales"), config), codec, True)
+    return _Policy(SkillProber(PrimitiveExecutor.for_env(env.unwrapped), config), codec, False)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -23,30 +23,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import gymnasium as gym  # noqa: E402
 
 import tactile_gym  # noqa: E402, F401 - registers the envs
-from agents.scripted import PrimitiveProber, ProberConfig  # noqa: E402
+from agents.evaluate import run_episode, summarize  # noqa: E402
+from agents.scripted import ProberConfig, scripted_policy  # noqa: E402
 from agents.seeds import SELECTION_SEED  # noqa: E402
-
-
-def play(env, config: ProberConfig, seeds: range) -> dict[str, float]:
-    """Final errors (mm), success and measurements of the prober over ``seeds``."""
-    prober = PrimitiveProber(env.get_wrapper_attr("scales"), config)
-    errors, measurements = [], []
-    for seed in seeds:
-        obs, info = env.reset(seed=seed)
-        prober.reset()
-        done = False
-        while not done:
-            obs, _, terminated, truncated, info = env.step(prober.act(obs))
-            done = terminated or truncated
-        errors.append(info["position_error"] * 1e3)
-        measurements.append(info["n_measurements"])
-    errors = np.array(errors)
-    return {
-        "mean": float(errors.mean()),
-        "median": float(np.median(errors)),
-        "success": float(np.mean(errors < 2.0)),
-        "measurements": float(np.mean(measurements)),
-    }
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -56,18 +35,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=SELECTION_SEED + 300)
     parser.add_argument("--angles", type=float, nargs="+", default=[16.0, 20.0, 24.0, 32.0])
     args = parser.parse_args(argv)
-    env = gym.make(args.env)  # dict observations: what the prober reads
+    env = gym.make(args.env)
     seeds = range(args.seed, args.seed + args.episodes)
     print(f"{args.env}, {args.episodes} episodes, seeds {seeds.start}..{seeds.stop - 1}\n")
     print("| step_angle (deg) | final position error mean / median (mm) | success | measurements |")
     print("|---|---|---|---|")
     default = float(np.rad2deg(ProberConfig().step_angle))
     for angle in args.angles:
-        row = play(env, ProberConfig(step_angle=float(np.deg2rad(angle))), seeds)
+        policy = scripted_policy(env, ProberConfig(step_angle=float(np.deg2rad(angle))))
+        row = summarize([run_episode(env, policy, seed) for seed in seeds])
         label = f"{angle:g}{' (default)' if np.isclose(angle, default) else ''}"
         print(
-            f"| {label} | {row['mean']:.2f} / "
-            f"{row['median']:.2f} | {100 * row['success']:.0f} % | {row['measurements']:.1f} |",
+            f"| {label} | {row['position_mean_mm']:.2f} / {row['position_median_mm']:.2f} | "
+            f"{100 * row['success_rate']:.0f} % | {row['measurements_mean']:.1f} |",
             flush=True,
         )
     env.close()
