@@ -474,3 +474,67 @@ def test_evaluation_prints_the_paired_comparison_with_scripted(tmp_path, capsys)
     out = capsys.readouterr().out
     assert "seeds 1000000..1000001" in out
     assert "| random | 2 |" in out and "95 % CI" in out
+
+
+def test_selection_picks_the_lowest_mean_error_on_selection_episodes(monkeypatch, tmp_path):
+    """The ranking alone, with agents.evaluate replaced by fixed scores: the lowest mean final
+    position error wins, scripted is played but never chosen, the seeds are the selection
+    range's."""
+    from agents.seeds import SELECTION_SEED
+    from agents.selection import select_model
+
+    scores = {"scripted": 1.0, "a": 2.5, "b": 0.9, "c": 1.7}
+    played = {}
+
+    def fake_evaluate(policies, episodes, seed, out, plot, workers):
+        played.update(policies=policies, seeds=(seed, seed + episodes - 1))
+        result = {
+            "env_id": "tactile_gym/HingeProbePrimitive-v2",
+            "policies": {f"label {p}": {"name": p} for p in policies},
+            "summaries": {f"label {p}": {"position_mean_mm": scores[p]} for p in policies},
+        }
+        (tmp_path / "evaluation.json").write_text(json.dumps(result))
+
+    monkeypatch.setattr(evaluate, "evaluate", fake_evaluate)
+    record = select_model(["a", "b", "c"], episodes=50, out=tmp_path)
+    assert played == {"policies": ["scripted", "a", "b", "c"],
+                      "seeds": (SELECTION_SEED, SELECTION_SEED + 49)}  # fmt: skip
+    assert record["selected"] == "b"
+    assert list(record["scores"]) == ["b", "c", "a"]
+    assert record["scripted"] == 1.0
+    assert json.loads((tmp_path / "selection.json").read_text()) == record
+
+
+def test_selection_refuses_test_seeds_and_empty_lists(tmp_path):
+    from agents.seeds import SELECTION_SEED, TEST_SEED
+    from agents.selection import select_model
+
+    with pytest.raises(ValueError, match="selection range"):
+        select_model(["m.zip"], episodes=10, seed=TEST_SEED, out=tmp_path)
+    with pytest.raises(ValueError, match="selection range"):
+        select_model(["m.zip"], episodes=100_001, seed=SELECTION_SEED, out=tmp_path)
+    with pytest.raises(ValueError, match="at least one model"):
+        select_model([], out=tmp_path)
+    with pytest.raises(ValueError, match="reference"):
+        select_model(["scripted"], out=tmp_path)
+
+
+def test_selected_model_is_copied_ready_to_test(flat_ppo_run, tmp_path):
+    """The copy holds the model, its statistics, its run config and the scores, and plays
+    exactly what the original scored."""
+    from agents.selection import select_model
+
+    models = [flat_ppo_run / "best_model.zip", flat_ppo_run / "final_model.zip"]
+    record = select_model(
+        models, episodes=2, out=tmp_path / "sel", copy_to=tmp_path / "models"
+    )  # fmt: skip
+    assert set(record["scores"]) == {str(m) for m in models}
+    copied = tmp_path / "models" / ("ppo_" + flat_ppo_run.name)
+    assert record["copied_to"] == str(copied)
+    chosen = copied / (record["selected"].rsplit("/", 1)[1])
+    assert train.vecnormalize_path(chosen).exists() and (copied / "config.yml").exists()
+    assert json.loads((copied / "selection.json").read_text()) == record
+    spec = evaluate.resolve_policies([str(chosen)])[0]
+    episodes = evaluate.run_episodes(spec, [record["seeds"][0], record["seeds"][1]])
+    replayed = evaluate.summarize(episodes)["position_mean_mm"]
+    assert replayed == pytest.approx(record["scores"][record["selected"]], rel=0, abs=1e-12)
