@@ -37,7 +37,13 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from .cli import make_parser, run_main
 from .seeds import RANGE_SIZE, SELECTION_SEED
 
-__all__ = ["FixedSeedVecEnv", "continue_evaluations", "fixed_seed_evaluation", "select_model"]
+__all__ = [
+    "FixedSeedVecEnv",
+    "continue_evaluations",
+    "copy_selected",
+    "fixed_seed_evaluation",
+    "select_model",
+]
 
 #: What :func:`select_model` ranks by, from ``agents.evaluate``'s summaries (lower wins).
 SCORE = "position_mean_mm"
@@ -155,7 +161,7 @@ def select_model(
         ValueError: no models, the scripted policy among them, or episodes outside the
             selection range.
     """
-    from .evaluate import evaluate, model_run, vecnormalize_path
+    from .evaluate import evaluate
 
     names = [str(m) for m in models]
     if not names:
@@ -189,17 +195,33 @@ def select_model(
         "copied_to": None,
     }
     if copy_to is not None:
-        run = model_run(Path(selected))
-        target = Path(copy_to) / f"{run['algo']}_{Path(run['run_dir']).name}"
-        target.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(selected, target / Path(selected).name)
-        if vecnormalize_path(selected).exists():
-            shutil.copy2(vecnormalize_path(selected), target / vecnormalize_path(selected).name)
-        shutil.copy2(Path(run["run_dir"]) / "config.yml", target / "config.yml")
-        record["copied_to"] = str(target)
-        (target / "selection.json").write_text(json.dumps(record, indent=1))
+        copy_selected(record, copy_to)
     (out / "selection.json").write_text(json.dumps(record, indent=1))
     return record
+
+
+def copy_selected(record: dict, copy_to: str | Path) -> Path:
+    """Copy ``record["selected"]`` (a :func:`select_model` result) into
+    ``<copy_to>/<algo>_<run folder>/`` with its ``VecNormalize`` statistics, its run's
+    ``config.yml`` and the record as ``selection.json``; sets ``record["copied_to"]``.
+
+    Returns:
+        The folder of the copy.
+    """
+    from .evaluate import model_run, vecnormalize_path
+
+    selected = Path(record["selected"])
+    run = model_run(selected)
+    target = Path(copy_to) / f"{run['algo']}_{Path(run['run_dir']).name}"
+    target.mkdir(parents=True, exist_ok=True)
+    shutil.copy2(selected, target / selected.name)
+    statistics = vecnormalize_path(selected)
+    if statistics.exists():
+        shutil.copy2(statistics, target / statistics.name)
+    shutil.copy2(Path(run["run_dir"]) / "config.yml", target / "config.yml")
+    record["copied_to"] = str(target)
+    (target / "selection.json").write_text(json.dumps(record, indent=1))
+    return target
 
 
 def main(argv: list[str] | None = None) -> dict:
