@@ -49,6 +49,7 @@ from tactile_gym.presets import load_yaml, preset_path
 from .cli import EXPECTED_ERRORS, check_env_id, make_parser, run_main
 from .seeds import TEST_SEED
 from .train import ALGOS, check_hyperparameters, latest_checkpoint, load_hyperparameters, make_env
+from .warmstart import load_recipe
 
 SWEEP_KEYS = {
     "name": "folder name of the sweep (default: the file's stem)",
@@ -59,12 +60,19 @@ SWEEP_KEYS = {
     "budgets": "env steps: one number, a mapping algo -> number, or null for the train YAML's",
     "evaluation": "mapping: episodes, seed (first held-out seed), model (final_model|best_model)",
     "train": "mapping of agents.train arguments: n_envs, eval_freq, eval_episodes, "
-    "checkpoint_freq, config_path",
+    "checkpoint_freq, config_path, warm_start (keys over the recipe, e.g. {demos: 0})",
     "overrides": "mapping algo -> hyperparameters over configs/train/<algo>.yml",
     "env_kwargs": "gym.make keywords for every job",
     "cpus_per_job": "CPUs each job declares to Ray (default 1)",
 }
-TRAIN_ARGS = ("n_envs", "eval_freq", "eval_episodes", "checkpoint_freq", "config_path")
+TRAIN_ARGS = (
+    "n_envs",
+    "eval_freq",
+    "eval_episodes",
+    "checkpoint_freq",
+    "config_path",
+    "warm_start",
+)
 EVALUATION_DEFAULTS = {"episodes": 20, "seed": TEST_SEED, "model": "final_model"}
 MODELS = ("final_model", "best_model")
 
@@ -181,6 +189,10 @@ def expand(config: dict[str, Any]) -> list[Job]:
             hyperparams = load_hyperparameters(algo, env_id, config_path)
             hyperparams.update(config["overrides"].get(algo) or {})
             check_hyperparameters(algo, hyperparams)
+            if "warm_start" in config["train"]:
+                load_recipe(
+                    preset_path("train", config_path or algo), env_id, config["train"]["warm_start"]
+                )
             budget = config.get("budgets")
             budget = budget.get(algo) if isinstance(budget, dict) else budget
             for seed in config["seeds"]:

@@ -137,6 +137,14 @@ def test_sweep_config_errors_name_the_value(bad, match):
         sweep.load_sweep({"algos": ["ppo"], **bad})
 
 
+def test_a_sweeps_warm_start_is_checked_before_any_job_and_reaches_the_jobs():
+    config = {"env_ids": ["tactile_gym/HingeProbePrimitive-v2"], "algos": ["ppo"], "seeds": 1}
+    with pytest.raises(ValueError, match="unknown warm_start keys.*demo"):
+        sweep.expand(sweep.load_sweep({**config, "train": {"warm_start": {"demo": 0}}}))
+    (job,) = sweep.expand(sweep.load_sweep({**config, "train": {"warm_start": {"demos": 0}}}))
+    assert job.train["warm_start"] == {"demos": 0} and job.spec()["train"] == job.train
+
+
 def test_finished_jobs_are_not_run_again(tmp_path, capsys):
     config = {"name": "resume", "log_folder": str(tmp_path), "env_ids": [ENV_ID],
               "algos": ["ppo"], "seeds": [0, 1], "budgets": 64}  # fmt: skip
