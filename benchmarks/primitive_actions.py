@@ -23,37 +23,47 @@ import numpy as np
 # Measure the checkout this file is in (git worktrees share one virtual environment).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from agents.evaluate import make_policy, resolve_policies  # noqa: E402
+from agents.evaluate import make_policy, resolve_policies, run_episode, summarize  # noqa: E402
 from agents.seeds import SELECTION_SEED  # noqa: E402
 from agents.train import make_env, torch_threads  # noqa: E402
+
+
+class Recorder:
+    """A policy that acts as ``policy`` does and keeps each action, clipped to the action
+    space, for the statistics; the episodes are ``agents.evaluate.run_episode``'s."""
+
+    def __init__(self, policy) -> None:
+        self.policy = policy
+        self.actions: list[np.ndarray] = []
+
+    def reset(self) -> None:
+        self.policy.reset()
+
+    def get_action(self, obs) -> np.ndarray:
+        action = self.policy.get_action(obs)
+        self.actions.append(np.clip(np.asarray(action, dtype=float), -1.0, 1.0))
+        return action
 
 
 def play(name: str, env_id: str, seeds: range) -> dict[str, float]:
     """One policy's episodes and the statistics of its actions."""
     (spec,) = resolve_policies([name], env_id)
     env = make_env(spec.env_id, **spec.env_kwargs)
-    policy = make_policy(name, env)
-    errors, turns, probes, drags, across, along = [], [], [], [], [], []
+    records, turns, probes, drags, across, along = [], [], [], [], [], []
     with torch_threads(1):
         for seed in seeds:
-            obs, _ = env.reset(seed=seed)
-            env.action_space.seed(seed)
-            policy.reset()
-            done, counts = False, [0, 0]
-            while not done:
-                action = np.clip(np.asarray(policy.get_action(obs), dtype=float), -1.0, 1.0)
-                obs, _, terminated, truncated, info = env.step(action)
-                done = terminated or truncated
-                turn = bool(action[0] >= 0.0)
-                counts[turn] += 1
-                (drags if turn else across).append(action[1])
-                along.append(action[2])
-            errors.append(info["position_error"])
-            probes.append(counts[0])
-            turns.append(counts[1])
+            recorder = Recorder(make_policy(name, env))
+            records.append(run_episode(env, recorder, seed))
+            actions = np.array(recorder.actions)
+            turn = actions[:, 0] >= 0.0
+            turns.append(np.sum(turn))
+            probes.append(np.sum(~turn))
+            drags.extend(actions[turn, 1])
+            across.extend(actions[~turn, 1])
+            along.extend(actions[:, 2])
     env.close()
     return {
-        "error_mm": 1e3 * float(np.mean(errors)),
+        "error_mm": summarize(records)["position_mean_mm"],
         "turns": float(np.mean(turns)),
         "probes": float(np.mean(probes)),
         "drag": (float(np.mean(drags)), float(np.std(drags))),
