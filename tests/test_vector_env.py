@@ -3,10 +3,17 @@
 Sub-env i must be ``gym.make(id)`` with the same seed and actions, across autoresets; one
 sub-env's end must not disturb the others; the vector env must behave as Gymnasium's own
 ``SyncVectorEnv`` over ``gym.make`` (the reference implementation of the conventions; the
-installed Gymnasium ships no vector env checker) and reject bad input by name.
+installed Gymnasium ships no vector env checker) and reject bad input by name. With worker
+processes (``workers=2``) it must give exactly what it gives in one process.
 """
 
 from __future__ import annotations
+
+import functools
+import gc
+import multiprocessing
+import os
+import signal
 
 import gymnasium as gym
 import numpy as np
@@ -64,15 +71,28 @@ def test_make_vec_gives_the_vector_env_with_gymnasium_conventions(env_id):
     first, _ = single.reset(seed=0)
     assert flat_obs.shape == (2, gym.spaces.flatdim(space))
     np.testing.assert_array_equal(flat_obs[0], gym.spaces.flatten(space, first))
-    for env in (envs, default, flat, single):
+    # Worker processes through make_vec's keywords: the same env, the same first step.
+    spread = _make_vec(env_id, 2, workers=2)
+    assert spread.workers == 2 and spread.metadata == envs.metadata
+    assert spread.observation_space == envs.observation_space
+    actions = envs.action_space.sample()
+    assert data_equivalence(spread.reset(seed=0), envs.reset(seed=0), exact=True)
+    assert data_equivalence(spread.step(actions), envs.step(actions), exact=True)
+    for env in (envs, default, flat, single, spread):
         env.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
-def test_sub_env_i_is_gym_make_with_its_seed_across_autoresets(env_id):
+def _worker_processes() -> list[multiprocessing.Process]:
+    return [p for p in multiprocessing.active_children() if "HingeProbeVectorEnv" in p.name]
+
+
+@pytest.mark.parametrize(
+    "env_id, workers", [(i, 1) for i in ENV_IDS] + [(ENV_IDS[0], 2), (ENV_IDS[2], 2)]
+)
+def test_sub_env_i_is_gym_make_with_its_seed_across_autoresets(env_id, workers):
     kwargs = SHORT[_primitive(env_id)]
     seeds = [11, 3, 7]
-    envs = _make_vec(env_id, len(seeds), **kwargs)
+    envs = _make_vec(env_id, len(seeds), workers=workers, **kwargs)
     singles = [gym.make(env_id, **kwargs) for _ in seeds]
     obs, _ = envs.reset(seed=np.array(seeds) if _primitive(env_id) else seeds)
     expected = [env.reset(seed=s)[0] for env, s in zip(singles, seeds)]
@@ -171,6 +191,24 @@ def test_same_step_autoreset_reports_the_final_observation():
     single.close()
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_reset_after_an_end_cancels_the_pending_autoreset(workers):
+    envs = _make_vec(ENV_IDS[0], 2, workers=workers, max_steps=2)
+    single = gym.make(ENV_IDS[0], max_steps=2)
+    actions = np.full((2, *envs.single_action_space.shape), 0.3, np.float32)
+    envs.reset(seed=0)
+    for _ in range(2):
+        *_, truncated, _ = envs.step(actions)
+    assert truncated.all()  # both would reset on the next step (NEXT_STEP) ...
+    envs.reset(seed=0)  # ... but this reset comes first, so the next step is a step
+    single.reset(seed=0)
+    obs, rewards, *_ = envs.step(actions)
+    want, reward, *_ = single.step(actions[0])
+    assert data_equivalence(_row(obs, 0), want, exact=True) and rewards[0] == reward
+    envs.close()
+    single.close()
+
+
 def test_disabled_autoreset_and_masked_reset():
     envs = _make_vec(ENV_IDS[0], 2, max_steps=1, autoreset_mode=AutoresetMode.DISABLED)
     first, _ = envs.reset(seed=0)
@@ -186,6 +224,117 @@ def test_disabled_autoreset_and_masked_reset():
     with pytest.raises(ValueError, match="reset_mask"):
         envs.reset(options={"reset_mask": np.array([False, False])})
     envs.close()
+
+
+def _random_run(envs: VectorEnv, steps: int) -> list:
+    """Everything ``steps`` steps of ``envs`` return after a seeded reset, with random
+    actions; with autoreset disabled, the ended sub-envs are reset by mask (seeded, so that
+    the runs compare)."""
+    out = [envs.reset(seed=5)]
+    rng = np.random.default_rng(0)
+    for k in range(steps):
+        actions = rng.uniform(-1, 1, envs.action_space.shape).astype(np.float32)
+        out.append(step := envs.step(actions))
+        ended = step[2] | step[3]
+        if envs.metadata["autoreset_mode"] is AutoresetMode.DISABLED and ended.any():
+            seeds = [100 * k + i if e else None for i, e in enumerate(ended)]
+            out.append(envs.reset(seed=seeds, options={"reset_mask": ended}))
+    return out
+
+
+@pytest.mark.parametrize(
+    "env_id, mode",
+    [(ENV_IDS[0], mode) for mode in AutoresetMode] + [(ENV_IDS[2], AutoresetMode.SAME_STEP)],
+)
+def test_workers_give_exactly_what_one_process_gives(env_id, mode):
+    kwargs = {**SHORT[_primitive(env_id)], "autoreset_mode": mode}
+    one = _make_vec(env_id, 3, **kwargs)
+    spread = _make_vec(env_id, 3, workers=2, **kwargs)
+    want, got = _random_run(one, 6), _random_run(spread, 6)
+    assert len(got) == len(want) >= 7  # a DISABLED run holds its masked resets too
+    for k, (a, b) in enumerate(zip(got, want)):
+        assert data_equivalence(a, b, exact=True), k
+    ended = [step[2] | step[3] for step in want if len(step) == 5]
+    assert np.any(ended)  # an autoreset (or a masked reset) was compared
+    if mode is AutoresetMode.SAME_STEP:
+        assert any("final_obs" in step[4] for step in got if len(step) == 5)
+    for envs in (one, spread):
+        envs.close()
+
+
+def test_sub_env_access_and_rendering_across_workers():
+    kwargs = {"render_mode": "rgb_array", "max_primitives": 2}
+    envs = _make_vec(ENV_IDS[2], 3, workers=2, **kwargs)
+    one = _make_vec(ENV_IDS[2], 3, **kwargs)
+    envs.reset(seed=4)
+    one.reset(seed=4)
+    assert envs.get_attr("max_primitives") == (2, 2, 2)
+    envs.set_attr("max_primitives", [3, 4, 5])
+    assert envs.call("max_primitives") == (3, 4, 5)
+    envs.set_attr("probe_note", "x")
+    assert envs.get_attr("probe_note") == ("x",) * 3
+    assert envs.np_random_seed == one.np_random_seed == (4, 5, 6)
+    draws = [g.random() for g in envs.np_random]
+    assert draws == [g.random() for g in one.np_random]
+    frames = envs.render()
+    assert len(frames) == 3
+    assert all(np.array_equal(a, b) for a, b in zip(frames, one.render()))
+    with pytest.raises(RuntimeError, match="with workers=2 the sub-envs live in worker"):
+        _ = envs.envs
+    # What cannot cross between processes is a clear error, and the pipes stay in step.
+    with pytest.raises(TypeError, match="arguments of set_attr must pickle"):
+        envs.set_attr("probe_note", lambda: 0)
+    envs.set_attr("probe_note", functools.partial(os.walk, "."))  # calling it: a generator
+    with pytest.raises(TypeError, match="call gave a result that cannot be pickled"):
+        envs.call("probe_note")
+    assert envs.get_attr("max_primitives") == (3, 4, 5)
+    envs.close()
+    one.close()
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, True, "2", 4])
+def test_bad_workers_is_a_value_error_naming_it(workers):
+    with pytest.raises(ValueError, match=r"workers must be an integer in \[1, 3\]"):
+        _make_vec(ENV_IDS[0], 3, workers=workers)
+
+
+def test_a_workers_errors_name_the_sub_env_and_its_death_is_an_error():
+    envs = _make_vec(ENV_IDS[2], 3, workers=2)
+    envs.reset(seed=0)
+    actions = np.zeros((3, 3), np.float32)
+    for index in (0, 2):  # in either worker
+        bad = actions.copy()
+        bad[index, 1] = np.inf
+        with pytest.raises(ValueError, match=f"sub-env {index} of 3: action must be finite") as e:
+            envs.step(bad)
+        assert e.value.index == index
+    envs.step(actions)  # the others went on; the vector env still works
+    with pytest.raises(ValueError, match="unknown HingeProbe keyword"):
+        _make_vec(ENV_IDS[0], 2, workers=2, max_stepz=3)
+    with pytest.raises(ValueError, match="render_mode='human'.*workers=2"):
+        _make_vec(ENV_IDS[0], 2, workers=2, render_mode="human")
+    (victim,) = [p for p in _worker_processes() if p.name.endswith("worker 1")]
+    os.kill(victim.pid, signal.SIGKILL)
+    with pytest.raises(RuntimeError, match=r"worker process 1 \(sub-envs 2-2\) died"):
+        envs.step(actions)
+    assert envs.closed and not _worker_processes()
+    envs.close()
+
+
+def test_closing_stops_the_workers_and_so_does_garbage_collection():
+    envs = _make_vec(ENV_IDS[0], 4, workers=2)
+    assert len(_worker_processes()) == 2
+    envs.reset(seed=0)
+    envs.close()
+    envs.close()  # twice is safe
+    assert envs.closed and not _worker_processes()
+    with pytest.raises(RuntimeError, match="closed"):
+        envs.step(np.zeros(envs.action_space.shape, np.float32))
+    dropped = _make_vec(ENV_IDS[0], 2, workers=2)
+    assert len(_worker_processes()) == 2
+    del dropped
+    gc.collect()
+    assert not _worker_processes()
 
 
 def test_gymnasiums_vector_wrappers_work_on_it():

@@ -1,23 +1,33 @@
-"""A Gymnasium vector env of N scenes in one process, for every id (``docs/design.md`` 7.9).
+"""A Gymnasium vector env of N scenes, in one process or spread over worker processes, for
+every id (``docs/design.md`` 7.9).
 
 ``gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")`` makes a
 ``HingeProbeVectorEnv``: N sub-envs, each the env ``gym.make(id)`` would make (the 6-D
-``HingeProbeEnv``, or the primitive wrapper over it) with its own PyBullet DIRECT client,
-stepped in turn in this process. Sub-env i reset with seed s and given the same actions
-reproduces ``gym.make(id)`` reset with seed s exactly; a primitive sub-env runs its own
-primitive to completion within one vector step, however long the others' primitives are.
+``HingeProbeEnv``, or the primitive wrapper over it) with its own PyBullet DIRECT client.
+With ``workers=1`` (the default) they are stepped in turn in this process; with ``workers=k``
+they are split into k contiguous blocks, each held and stepped by a worker process (started
+with ``forkserver``, or ``spawn`` where there is none), the actions of a block going to its
+worker in one message per vector step. Either way the per-sub-env work is ``_Block``'s, so the
+results are the same. Sub-env i reset with seed s and given the same actions reproduces
+``gym.make(id)`` reset with seed s exactly; a primitive sub-env runs its own primitive to
+completion within one vector step, however long the others' primitives are.
 
 Gymnasium 1.x conventions: ``metadata["autoreset_mode"]`` (``NEXT_STEP`` by default, as
 ``SyncVectorEnv``; ``SAME_STEP`` and ``DISABLED`` on request), batched observations (a dict of
 ``(N, k)`` arrays, or ``(N, k)`` with ``observation_mode="flat"``), infos batched with ``_key``
 masks, ``single_observation_space`` and ``single_action_space``. An exception raised by a
-sub-env names its index.
+sub-env names its index, in a worker too; a worker that dies is a ``RuntimeError``.
 """
 
 from __future__ import annotations
 
+import multiprocessing
+import pickle
+import signal
+import traceback
 from collections.abc import Callable, Sequence
 from numbers import Integral
+from operator import methodcaller
 from typing import Any
 
 import gymnasium as gym
@@ -31,6 +41,7 @@ from tactile_gym.validation import check_int
 
 __all__ = [
     "MAX_NUM_ENVS",
+    "WORKER_EXIT_TIMEOUT",
     "HingeProbeVectorEnv",
     "make_primitive_vector_env",
     "make_vector_env",
@@ -39,6 +50,10 @@ __all__ = [
 #: The most sub-envs one vector env holds: each costs memory and build time
 #: (``docs/design.md`` 7.9), so a typo such as ``num_envs=10_000`` fails at once.
 MAX_NUM_ENVS = 256
+
+#: How long ``close`` waits for a worker process to close its sub-envs and exit before it
+#: terminates it, s.
+WORKER_EXIT_TIMEOUT = 5.0  # s
 
 
 def make_vector_env(num_envs: int = 1, **kwargs: Any) -> HingeProbeVectorEnv:
@@ -64,24 +79,258 @@ def _with_index(error: Exception, index: int, num_envs: int) -> Exception:
     return indexed
 
 
+def _call_or_read(env: gym.Env, name: str, args: tuple, kwargs: dict) -> Any:
+    """What ``VectorEnv.call`` gives for one sub-env: the method ``name`` called, or the
+    attribute read if it is not callable."""
+    attr = env.get_wrapper_attr(name)
+    return attr(*args, **kwargs) if callable(attr) else attr
+
+
+def _description(env: gym.Env) -> tuple:
+    """What the vector env takes from its first sub-env: render mode, metadata and spaces."""
+    return env.render_mode, env.metadata, env.observation_space, env.action_space
+
+
+class _Block:
+    """Sub-envs ``first`` to ``first + size - 1`` of a vector env of ``num_envs``, and the
+    per-sub-env logic: autoreset, errors naming the sub-env. The vector env holds one block
+    of all its sub-envs (``workers=1``) or each worker process holds one. Every method takes
+    one row per sub-env of the block (seeds, actions, values) and returns one result each.
+    """
+
+    def __init__(
+        self,
+        env_fn: Callable[..., gym.Env],
+        kwargs: dict[str, Any],
+        first: int,
+        size: int,
+        num_envs: int,
+        autoreset_mode: AutoresetMode,
+    ) -> None:
+        self.first, self.num_envs, self.autoreset_mode = first, num_envs, autoreset_mode
+        self.envs: list[gym.Env] = []
+        try:
+            for _ in range(size):
+                self.envs.append(env_fn(**kwargs))
+        except Exception:
+            self.close()  # the clients already opened
+            raise
+        self.ended = np.zeros(size, dtype=bool)  # NEXT_STEP: reset on the next step
+
+    def reset(self, seeds: Sequence, mask: np.ndarray, options: dict | None) -> list:
+        """``(obs, info)`` of each sub-env reset, ``None`` for those outside ``mask``."""
+        results = [
+            self._call(j, methodcaller("reset", seed=seed, options=options)) if reset else None
+            for j, (seed, reset) in enumerate(zip(seeds, mask))
+        ]
+        self.ended[mask] = False
+        return results
+
+    def step(self, actions: np.ndarray) -> list:
+        """``(obs, reward, terminated, truncated, info, final)`` of each sub-env, ``final``
+        being ``(obs, info)`` of an episode that a same-step autoreset ended, else ``None``."""
+        results = []
+        for j, action in enumerate(actions):
+            final = None
+            if self.autoreset_mode == AutoresetMode.NEXT_STEP and self.ended[j]:
+                obs, info = self._call(j, methodcaller("reset"))
+                reward, terminated, truncated = 0.0, False, False
+            else:
+                obs, reward, terminated, truncated, info = self._call(
+                    j, methodcaller("step", action)
+                )
+                if self.autoreset_mode == AutoresetMode.SAME_STEP and (terminated or truncated):
+                    final = (obs, info)
+                    obs, info = self._call(j, methodcaller("reset"))
+            self.ended[j] = terminated or truncated
+            results.append((obs, reward, terminated, truncated, info, final))
+        return results
+
+    def render(self) -> list:
+        return [self._call(j, methodcaller("render")) for j in range(len(self.envs))]
+
+    def call(self, name: str, args: tuple, kwargs: dict) -> list:
+        return [
+            self._call(j, lambda env: _call_or_read(env, name, args, kwargs))
+            for j in range(len(self.envs))
+        ]
+
+    def get_attr(self, name: str) -> list:
+        return [
+            self._call(j, methodcaller("get_wrapper_attr", name)) for j in range(len(self.envs))
+        ]
+
+    def set_attr(self, values: Sequence, name: str) -> list:
+        return [
+            self._call(j, methodcaller("set_wrapper_attr", name, value))
+            for j, value in enumerate(values)
+        ]
+
+    def close(self) -> None:
+        for env in self.envs:
+            env.close()
+        self.envs = []
+
+    def _call(self, j: int, fn: Callable[[gym.Env], Any]) -> Any:
+        """``fn`` on sub-env j of the block; an error names the sub-env's global index."""
+        try:
+            return fn(self.envs[j])
+        except Exception as error:
+            indexed = _with_index(error, self.first + j, self.num_envs)
+            if indexed is error:
+                raise
+            raise indexed from error
+
+
+# ---------------------------------------------------------------------- worker processes
+def _error_reply(error: Exception) -> tuple:
+    """A reply that carries ``error`` to the vector env's process, with the worker's
+    traceback; an error that cannot cross (it does not pickle) becomes a ``RuntimeError``
+    with its message."""
+    where = "".join(traceback.format_exception(error))
+    try:
+        pickle.loads(pickle.dumps(error))
+    except Exception:
+        error = RuntimeError(f"{type(error).__name__}: {error}")
+    return "error", error, where
+
+
+def _send(conn, reply: tuple, what: str) -> None:
+    """Send ``reply``; a result that does not pickle is sent as a ``TypeError`` instead."""
+    try:
+        data = pickle.dumps(reply, pickle.HIGHEST_PROTOCOL)
+    except Exception as error:
+        data = pickle.dumps(
+            _error_reply(
+                TypeError(
+                    f"{what} gave a result that cannot be pickled to leave its worker: {error}"
+                )
+            )
+        )
+    conn.send_bytes(data)
+
+
+def _serve(conn, env_fn, kwargs, first, size, num_envs, autoreset_mode) -> None:
+    """A worker process: build a block, send its first sub-env's description, then run the
+    block's methods the vector env asks for until it says ``"close"`` or goes away."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the vector env's to handle
+    try:
+        block = _Block(env_fn, kwargs, first, size, num_envs, autoreset_mode)
+    except Exception as error:
+        conn.send(_error_reply(error))
+        conn.close()
+        return
+    try:
+        _send(conn, ("ok", _description(block.envs[0])), "the first sub-env's description")
+        while (message := conn.recv())[0] != "close":
+            method, args = message
+            try:
+                reply = ("ok", getattr(block, method)(*args))
+            except Exception as error:
+                reply = _error_reply(error)
+            _send(conn, reply, method)
+    except (EOFError, OSError):  # the vector env's process went away
+        pass
+    finally:
+        block.close()
+        conn.close()
+
+
+class _Worker:
+    """The vector env's handle on one worker process: its block's place and its pipe."""
+
+    def __init__(
+        self,
+        context: multiprocessing.context.BaseContext,
+        index: int,
+        first: int,
+        size: int,
+        env_fn: Callable[..., gym.Env],
+        kwargs: dict[str, Any],
+        num_envs: int,
+        autoreset_mode: AutoresetMode,
+    ) -> None:
+        self.index, self.first, self.size = index, first, size
+        self.conn, child = context.Pipe()
+        self.process = context.Process(
+            target=_serve,
+            args=(child, env_fn, kwargs, first, size, num_envs, autoreset_mode),
+            name=f"HingeProbeVectorEnv worker {index}",
+            daemon=True,  # ended with the vector env's process, whatever happens to it
+        )
+        self.process.start()
+        child.close()  # so that the worker's death closes the pipe
+
+    def send(self, message: bytes) -> None:
+        try:
+            self.conn.send_bytes(message)
+        except OSError:
+            raise self._died() from None
+
+    def receive(self) -> tuple:
+        try:
+            return self.conn.recv()
+        except (EOFError, OSError):
+            raise self._died() from None
+
+    def stop(self) -> None:
+        """Ask the worker to close its sub-envs and exit; terminate it if it does not."""
+        try:
+            self.conn.send_bytes(pickle.dumps(("close", ())))
+        except OSError:  # already gone
+            pass
+        self.process.join(WORKER_EXIT_TIMEOUT)
+        if self.process.is_alive():
+            self.process.terminate()
+            self.process.join(WORKER_EXIT_TIMEOUT)
+        self.conn.close()
+
+    def _died(self) -> RuntimeError:
+        self.process.join(WORKER_EXIT_TIMEOUT)
+        return RuntimeError(
+            f"worker process {self.index} (sub-envs {self.first}-{self.first + self.size - 1})"
+            f" died, exit code {self.process.exitcode}"
+        )
+
+
+def _context() -> multiprocessing.context.BaseContext:
+    """``forkserver`` where the platform has it, else ``spawn``: never ``fork``, which would
+    copy this process's PyBullet clients and numba threads into the workers. The fork server
+    imports this module once, so that the workers, forked from it, need not."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        context = multiprocessing.get_context("forkserver")
+        context.set_forkserver_preload([__name__])
+        return context
+    return multiprocessing.get_context("spawn")
+
+
+# ---------------------------------------------------------------------- the vector env
 class HingeProbeVectorEnv(VectorEnv):
-    """N sub-envs of one id, stepped in one process (module docstring).
+    """N sub-envs of one id, stepped in this process or in worker processes (module
+    docstring).
 
     Args:
-        env_fn: makes one sub-env from the env keywords (the id's entry point).
+        env_fn: makes one sub-env from the env keywords (the id's entry point); with
+            ``workers`` > 1 it must pickle (a module-level function or class).
         num_envs: how many sub-envs, 1 to ``MAX_NUM_ENVS``.
         autoreset_mode: ``AutoresetMode`` or its value. ``NEXT_STEP``: the step after a
             sub-env's episode ends resets it (its action is ignored, reward 0). ``SAME_STEP``:
             the step that ends it resets it and puts the last observation and info in
             ``info["final_obs"]`` and ``info["final_info"]``. ``DISABLED``: reset ended
             sub-envs with ``reset(options={"reset_mask": mask})``.
+        workers: how many processes step the sub-envs, 1 to ``num_envs``. 1: this process,
+            the sub-envs in ``envs``. k > 1: k worker processes, each holding a contiguous
+            block of sub-envs (sizes differ by at most 1); ``call``, ``get_attr``,
+            ``set_attr``, ``render``, ``np_random`` and ``np_random_seed`` reach them
+            through pipes, so arguments and results must pickle and come back as copies.
         **kwargs: the keywords of ``gym.make(id)`` (``render_mode`` included), the same for
             every sub-env.
 
     Raises:
-        ValueError: ``num_envs`` not an integer in [1, ``MAX_NUM_ENVS``], an unknown
-            ``autoreset_mode``, ``render_mode="human"`` with more than one sub-env; the
-            sub-env's own errors for its keywords.
+        ValueError: ``num_envs`` not an integer in [1, ``MAX_NUM_ENVS``], ``workers`` not an
+            integer in [1, ``num_envs``], an unknown ``autoreset_mode``,
+            ``render_mode="human"`` with more than one sub-env; the sub-env's own errors for
+            its keywords.
     """
 
     def __init__(
@@ -89,9 +338,13 @@ class HingeProbeVectorEnv(VectorEnv):
         env_fn: Callable[..., gym.Env],
         num_envs: int,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        workers: int = 1,
         **kwargs: Any,
     ) -> None:
+        self._local: _Block | None = None
+        self._workers: list[_Worker] = []
         self.num_envs = check_int("num_envs", num_envs, 1, MAX_NUM_ENVS)
+        self.workers = check_int("workers", workers, 1, self.num_envs)
         try:
             self.autoreset_mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -102,24 +355,33 @@ class HingeProbeVectorEnv(VectorEnv):
         if kwargs.get("render_mode") == "human" and self.num_envs > 1:
             raise ValueError(
                 "render_mode='human' opens PyBullet's GUI, which one process can open once;"
-                f" got num_envs={self.num_envs}. Use num_envs=1 or render_mode='rgb_array'."
+                f" got num_envs={self.num_envs} (workers={self.workers})."
+                " Use num_envs=1 or render_mode='rgb_array'."
             )
-        self.envs: list[gym.Env] = []
-        try:
-            for _ in range(self.num_envs):
-                self.envs.append(env_fn(**kwargs))
-        except Exception:
-            self.close_extras()  # the clients already opened
-            raise
-        first = self.envs[0]
-        self.render_mode = first.render_mode
-        self.metadata = {**first.metadata, "autoreset_mode": self.autoreset_mode}
-        self.single_observation_space = first.observation_space
-        self.single_action_space = first.action_space
+        if self.workers == 1:
+            self._local = _Block(
+                env_fn, kwargs, 0, self.num_envs, self.num_envs, self.autoreset_mode
+            )
+            description = _description(self._local.envs[0])
+        else:
+            description = self._start_workers(env_fn, kwargs)
+        self.render_mode, metadata, single_obs_space, single_action_space = description
+        self.metadata = {**metadata, "autoreset_mode": self.autoreset_mode}
+        self.single_observation_space = single_obs_space
+        self.single_action_space = single_action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._obs: list[Any] = [None] * self.num_envs
-        self._ended = np.zeros(self.num_envs, dtype=bool)  # NEXT_STEP: reset on the next step
+
+    @property
+    def envs(self) -> list[gym.Env]:
+        """The sub-envs, with ``workers=1``; with workers they live in the worker processes."""
+        if self._local is None:
+            raise RuntimeError(
+                f"with workers={self.workers} the sub-envs live in worker processes;"
+                " reach them with call, get_attr or set_attr"
+            )
+        return self._local.envs
 
     # ------------------------------------------------------------------ vector API
     def reset(
@@ -144,10 +406,10 @@ class HingeProbeVectorEnv(VectorEnv):
         options = dict(options or {})
         mask = self._reset_mask(options.pop("reset_mask", None))
         infos: dict[str, Any] = {}
-        for i in np.flatnonzero(mask):
-            self._obs[i], info = self._call(i, "reset", seed=seeds[i], options=options or None)
-            infos = self._add_info(infos, info, i)
-        self._ended[mask] = False
+        for i, result in enumerate(self._run("reset", options or None, rows=(seeds, mask))):
+            if result is not None:
+                self._obs[i], info = result
+                infos = self._add_info(infos, info, i)
         return self._batched_obs(), infos
 
     def step(self, actions):
@@ -162,46 +424,40 @@ class HingeProbeVectorEnv(VectorEnv):
         terminations = np.zeros(self.num_envs, dtype=bool)
         truncations = np.zeros(self.num_envs, dtype=bool)
         infos: dict[str, Any] = {}
-        for i in range(self.num_envs):
-            if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._ended[i]:
-                self._obs[i], info = self._call(i, "reset")
-            else:
-                self._obs[i], rewards[i], terminations[i], truncations[i], info = self._call(
-                    i, "step", actions[i]
-                )
-                if self.autoreset_mode == AutoresetMode.SAME_STEP and (
-                    terminations[i] or truncations[i]
-                ):
-                    infos = self._add_info(
-                        infos, {"final_obs": self._obs[i], "final_info": info}, i
-                    )
-                    self._obs[i], info = self._call(i, "reset")
+        for i, result in enumerate(self._run("step", rows=(actions,))):
+            self._obs[i], rewards[i], terminations[i], truncations[i], info, final = result
+            if final is not None:
+                infos = self._add_info(infos, {"final_obs": final[0], "final_info": final[1]}, i)
             infos = self._add_info(infos, info, i)
-        self._ended = terminations | truncations
         return self._batched_obs(), rewards, terminations, truncations, infos
 
     def render(self) -> tuple[Any, ...]:
         """Every sub-env's frame (``render_mode="rgb_array"``), in order."""
-        return tuple(self._call(i, "render") for i in range(self.num_envs))
+        return tuple(self._run("render"))
 
     def close_extras(self, **kwargs: Any) -> None:
-        """Close every sub-env (and its PyBullet client); ``close()`` twice is safe."""
-        for env in self.envs:
-            env.close()
-        self.envs = []
+        """Close every sub-env (and its PyBullet client) and stop the workers; ``close()``
+        twice is safe."""
+        if self._local is not None:
+            self._local.close()
+        workers, self._workers = self._workers, []
+        for worker in workers:
+            worker.stop()
+
+    def __del__(self) -> None:
+        # Gymnasium's VectorEnv does not close on garbage collection; the workers would
+        # otherwise idle until this process exits.
+        if not getattr(self, "closed", True):
+            self.close()
 
     # ------------------------------------------------------------------ sub-env access
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Call the method ``name`` of every sub-env (or read it, if not callable)."""
-        results = []
-        for env in self.envs:
-            attr = env.get_wrapper_attr(name)
-            results.append(attr(*args, **kwargs) if callable(attr) else attr)
-        return tuple(results)
+        return tuple(self._run("call", name, args, kwargs))
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """The attribute ``name`` of every sub-env."""
-        return tuple(env.get_wrapper_attr(name) for env in self.envs)
+        return tuple(self._run("get_attr", name))
 
     def set_attr(self, name: str, values: Any) -> None:
         """Set ``name`` on every sub-env: one value each from a list or tuple of
@@ -212,8 +468,7 @@ class HingeProbeVectorEnv(VectorEnv):
             raise ValueError(
                 f"set_attr needs one value per sub-env ({self.num_envs}), got {len(values)}"
             )
-        for env, value in zip(self.envs, values):
-            env.set_wrapper_attr(name, value)
+        self._run("set_attr", name, rows=(values,))
 
     @property
     def np_random_seed(self) -> tuple[int | None, ...]:
@@ -222,20 +477,64 @@ class HingeProbeVectorEnv(VectorEnv):
 
     @property
     def np_random(self) -> tuple[np.random.Generator, ...]:
-        """Every sub-env's random generator."""
+        """Every sub-env's random generator (with workers, copies: drawing from them does
+        not move the sub-envs')."""
         return self.get_attr("np_random")
 
     # ------------------------------------------------------------------ helpers
-    def _call(self, index: int, method: str, *args: Any, **kwargs: Any):
+    def _start_workers(self, env_fn: Callable[..., gym.Env], kwargs: dict) -> tuple:
+        """Start the workers, each building its block; the first sub-env's description."""
+        context = _context()
+        sizes = [len(b) for b in np.array_split(np.arange(self.num_envs), self.workers)]
+        firsts = np.cumsum([0, *sizes[:-1]]).tolist()
+        try:
+            for k, (first, size) in enumerate(zip(firsts, sizes)):
+                self._workers.append(
+                    _Worker(
+                        context, k, first, size, env_fn, kwargs, self.num_envs, self.autoreset_mode
+                    )
+                )
+            return self._exchange([])[0]
+        except BaseException:  # env_fn or kwargs that do not pickle, or fail in a worker
+            self.close()
+            raise
+
+    def _run(self, method: str, *args: Any, rows: Sequence[Sequence] = ()) -> list:
+        """``_Block.<method>`` on every block, with each block's slice of ``rows`` (one row
+        per sub-env each) and then ``args``; the results of all sub-envs, in order."""
         if self.closed:
             raise RuntimeError("this vector env is closed")
+        if self._local is not None:
+            return getattr(self._local, method)(*rows, *args)
+        messages = []
+        for worker in self._workers:
+            block_rows = [row[worker.first : worker.first + worker.size] for row in rows]
+            try:
+                messages.append(pickle.dumps((method, (*block_rows, *args))))
+            except Exception as error:
+                raise TypeError(
+                    f"the arguments of {method} must pickle to reach the worker processes: {error}"
+                ) from error
+        return [result for results in self._exchange(messages) for result in results]
+
+    def _exchange(self, messages: list[bytes]) -> list:
+        """Send each worker its message (none: wait for the replies to their start), then
+        every worker's reply, in order. The first error among the replies is raised once all
+        have come, so that no reply is left in a pipe; a dead worker, or an interrupt while
+        replies are due, closes the vector env for the same reason."""
         try:
-            return getattr(self.envs[index], method)(*args, **kwargs)
-        except Exception as error:
-            indexed = _with_index(error, index, self.num_envs)
-            if indexed is error:
-                raise
-            raise indexed from error
+            for worker, message in zip(self._workers, messages):
+                worker.send(message)
+            replies = [worker.receive() for worker in self._workers]
+        except BaseException:
+            self.close()
+            raise
+        for worker, reply in zip(self._workers, replies):
+            if reply[0] == "error":
+                _, error, where = reply
+                error.add_note(f"raised in worker process {worker.index}:\n{where}")
+                raise error
+        return [reply[1] for reply in replies]
 
     def _seeds(self, seed) -> list[int | None]:
         n = self.num_envs
