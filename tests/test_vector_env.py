@@ -229,16 +229,30 @@ def test_disabled_autoreset_and_masked_reset():
 def _random_run(envs: VectorEnv, steps: int) -> list:
     """Everything ``steps`` steps of ``envs`` return after a seeded reset, with random
     actions; with autoreset disabled, the ended sub-envs are reset by mask (seeded, so that
-    the runs compare)."""
+    the runs compare). A masked reset of the first sub-env alone after the first step (so
+    that its episodes end a step after the others') and of the last one alone at the end:
+    each time one worker's block resets nothing."""
     out = [envs.reset(seed=5)]
     rng = np.random.default_rng(0)
-    for k in range(steps):
+
+    def masked_reset(i: int) -> None:
+        mask = np.arange(envs.num_envs) == i
+        out.append(envs.reset(seed=[7] * envs.num_envs, options={"reset_mask": mask}))
+
+    def step() -> None:
         actions = rng.uniform(-1, 1, envs.action_space.shape).astype(np.float32)
-        out.append(step := envs.step(actions))
-        ended = step[2] | step[3]
+        out.append(envs.step(actions))
+        ended = out[-1][2] | out[-1][3]
         if envs.metadata["autoreset_mode"] is AutoresetMode.DISABLED and ended.any():
-            seeds = [100 * k + i if e else None for i, e in enumerate(ended)]
+            seeds = [100 * len(out) + i if e else None for i, e in enumerate(ended)]
             out.append(envs.reset(seed=seeds, options={"reset_mask": ended}))
+
+    step()
+    masked_reset(0)
+    for _ in range(steps):
+        step()
+    masked_reset(envs.num_envs - 1)
+    step()
     return out
 
 
@@ -251,13 +265,15 @@ def test_workers_give_exactly_what_one_process_gives(env_id, mode):
     one = _make_vec(env_id, 3, **kwargs)
     spread = _make_vec(env_id, 3, workers=2, **kwargs)
     want, got = _random_run(one, 6), _random_run(spread, 6)
-    assert len(got) == len(want) >= 7  # a DISABLED run holds its masked resets too
+    assert len(got) == len(want) >= 10  # a DISABLED run holds its masked resets too
     for k, (a, b) in enumerate(zip(got, want)):
         assert data_equivalence(a, b, exact=True), k
     ended = [step[2] | step[3] for step in want if len(step) == 5]
     assert np.any(ended)  # an autoreset (or a masked reset) was compared
-    if mode is AutoresetMode.SAME_STEP:
-        assert any("final_obs" in step[4] for step in got if len(step) == 5)
+    if mode is AutoresetMode.SAME_STEP:  # some steps end sub-envs of one worker only
+        steps = [step for step in got if len(step) == 5]
+        finals = [step[4]["_final_obs"] for step in steps if "final_obs" in step[4]]
+        assert any(mask[:2].any() != mask[2:].any() for mask in finals), finals
     for envs in (one, spread):
         envs.close()
 

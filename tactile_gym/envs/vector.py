@@ -7,8 +7,12 @@ every id (``docs/design.md`` 7.9).
 With ``workers=1`` (the default) they are stepped in turn in this process; with ``workers=k``
 they are split into k contiguous blocks, each held and stepped by a worker process (started
 with ``forkserver``, or ``spawn`` where there is none), the actions of a block going to its
-worker in one message per vector step. Either way the per-sub-env work is ``_Block``'s, so the
-results are the same. Sub-env i reset with seed s and given the same actions reproduces
+worker in one message per vector step and its batched results coming back in one. Either way
+the per-sub-env work, batching included, is ``_Block``'s, and the blocks' batches are joined
+as Gymnasium would have batched the sub-envs one by one, so the results are the same. A
+script that makes workers must guard its top level with ``if __name__ == "__main__":``, as
+for any ``forkserver`` or ``spawn`` process. Sub-env i reset with seed s and given the same
+actions reproduces
 ``gym.make(id)`` reset with seed s exactly; a primitive sub-env runs its own primitive to
 completion within one vector step, however long the others' primitives are.
 
@@ -92,11 +96,17 @@ def _description(env: gym.Env) -> tuple:
 
 
 class _Block:
-    """Sub-envs ``first`` to ``first + size - 1`` of a vector env of ``num_envs``, and the
-    per-sub-env logic: autoreset, errors naming the sub-env. The vector env holds one block
-    of all its sub-envs (``workers=1``) or each worker process holds one. Every method takes
-    one row per sub-env of the block (seeds, actions, values) and returns one result each.
+    """Sub-envs ``first`` to ``first + size - 1`` of a vector env of ``total``, and the
+    per-sub-env logic: autoreset, errors naming the sub-env, batching. The vector env holds
+    one block of all its sub-envs (``workers=1``) or each worker process holds one. Every
+    method takes one row per sub-env of the block (seeds, actions, values); ``reset`` and
+    ``step`` return the block's batch (observations, infos, ...), the others one result per
+    sub-env.
     """
+
+    #: Gymnasium's batching of one sub-env's info into a vector env's, over the block's rows
+    #: (it reads only ``num_envs``, here the block's size): the same keys, masks and dtypes.
+    _add_info = VectorEnv._add_info
 
     def __init__(
         self,
@@ -104,10 +114,11 @@ class _Block:
         kwargs: dict[str, Any],
         first: int,
         size: int,
-        num_envs: int,
+        total: int,
         autoreset_mode: AutoresetMode,
     ) -> None:
-        self.first, self.num_envs, self.autoreset_mode = first, num_envs, autoreset_mode
+        self.first, self.num_envs, self.total = first, size, total
+        self.autoreset_mode = autoreset_mode
         self.envs: list[gym.Env] = []
         try:
             for _ in range(size):
@@ -115,36 +126,43 @@ class _Block:
         except Exception:
             self.close()  # the clients already opened
             raise
+        self.obs: list[Any] = [None] * size  # each sub-env's last observation
         self.ended = np.zeros(size, dtype=bool)  # NEXT_STEP: reset on the next step
 
-    def reset(self, seeds: Sequence, mask: np.ndarray, options: dict | None) -> list:
-        """``(obs, info)`` of each sub-env reset, ``None`` for those outside ``mask``."""
-        results = [
-            self._call(j, methodcaller("reset", seed=seed, options=options)) if reset else None
-            for j, (seed, reset) in enumerate(zip(seeds, mask))
-        ]
+    def reset(self, seeds: Sequence, mask: np.ndarray, options: dict | None) -> tuple:
+        """Reset the sub-envs of ``mask``: the block's observations (the others' last ones)
+        and the infos of those reset."""
+        infos: dict[str, Any] = {}
+        for j in np.flatnonzero(mask):
+            reset = methodcaller("reset", seed=seeds[j], options=options)
+            self.obs[j], info = self._call(j, reset)
+            infos = self._add_info(infos, info, j)
         self.ended[mask] = False
-        return results
+        return self._batched_obs(), infos
 
-    def step(self, actions: np.ndarray) -> list:
-        """``(obs, reward, terminated, truncated, info, final)`` of each sub-env, ``final``
-        being ``(obs, info)`` of an episode that a same-step autoreset ended, else ``None``."""
-        results = []
+    def step(self, actions: np.ndarray) -> tuple:
+        """Step every sub-env with its row of ``actions``, the autoreset mode saying what an
+        ended one does: the block's observations, rewards, terminations, truncations and
+        infos."""
+        rewards = np.zeros(self.num_envs, dtype=np.float64)
+        terminations = np.zeros(self.num_envs, dtype=bool)
+        truncations = np.zeros(self.num_envs, dtype=bool)
+        infos: dict[str, Any] = {}
         for j, action in enumerate(actions):
-            final = None
             if self.autoreset_mode == AutoresetMode.NEXT_STEP and self.ended[j]:
-                obs, info = self._call(j, methodcaller("reset"))
-                reward, terminated, truncated = 0.0, False, False
+                self.obs[j], info = self._call(j, methodcaller("reset"))
             else:
-                obs, reward, terminated, truncated, info = self._call(
+                self.obs[j], rewards[j], terminations[j], truncations[j], info = self._call(
                     j, methodcaller("step", action)
                 )
-                if self.autoreset_mode == AutoresetMode.SAME_STEP and (terminated or truncated):
-                    final = (obs, info)
-                    obs, info = self._call(j, methodcaller("reset"))
-            self.ended[j] = terminated or truncated
-            results.append((obs, reward, terminated, truncated, info, final))
-        return results
+                if self.autoreset_mode == AutoresetMode.SAME_STEP and (
+                    terminations[j] or truncations[j]
+                ):
+                    infos = self._add_info(infos, {"final_obs": self.obs[j], "final_info": info}, j)
+                    self.obs[j], info = self._call(j, methodcaller("reset"))
+            infos = self._add_info(infos, info, j)
+        self.ended = terminations | truncations
+        return self._batched_obs(), rewards, terminations, truncations, infos
 
     def render(self) -> list:
         return [self._call(j, methodcaller("render")) for j in range(len(self.envs))]
@@ -171,15 +189,58 @@ class _Block:
             env.close()
         self.envs = []
 
+    def _batched_obs(self):
+        """The block's observations stacked into fresh arrays (the caller may keep them)."""
+        space = self.envs[0].observation_space
+        return concatenate(space, self.obs, create_empty_array(space, self.num_envs))
+
     def _call(self, j: int, fn: Callable[[gym.Env], Any]) -> Any:
         """``fn`` on sub-env j of the block; an error names the sub-env's global index."""
         try:
             return fn(self.envs[j])
         except Exception as error:
-            indexed = _with_index(error, self.first + j, self.num_envs)
+            indexed = _with_index(error, self.first + j, self.total)
             if indexed is error:
                 raise
             raise indexed from error
+
+
+def _join(parts: Sequence) -> Any:
+    """The blocks' batches (arrays, or dicts of arrays) joined in block order."""
+    if len(parts) == 1:
+        return parts[0]
+    if isinstance(parts[0], dict):
+        return {key: _join([part[key] for part in parts]) for key in parts[0]}
+    return np.concatenate(parts)
+
+
+def _join_infos(parts: Sequence[dict], rows: Sequence[int]) -> dict:
+    """The blocks' batched infos (block k of ``rows[k]`` sub-envs) joined as
+    ``VectorEnv._add_info`` would have batched them sub-env by sub-env: keys in order of first
+    appearance, each array of the dtype its first block gave it, the rows of blocks without
+    the key zero (``None`` in object arrays) and unmasked."""
+    if len(parts) == 1:
+        return parts[0]
+    total, joined = sum(rows), {}
+    for part, first, size in zip(parts, np.cumsum([0, *rows[:-1]]), rows):
+        _put_info(joined, part, first, size, total)
+    return joined
+
+
+def _put_info(joined: dict, part: dict, first: int, size: int, total: int) -> dict:
+    """``part``, a block's batched infos, written into rows ``first`` on of ``joined``."""
+    for key, value in part.items():
+        if isinstance(value, dict):
+            joined[key] = _put_info(joined.get(key, {}), value, first, size, total)
+            continue
+        if key not in joined:
+            joined[key] = (
+                np.full(total, None, dtype=object)
+                if value.dtype == object
+                else np.zeros((total, *value.shape[1:]), dtype=value.dtype)
+            )
+        joined[key][first : first + size] = value
+    return joined
 
 
 # ---------------------------------------------------------------------- worker processes
@@ -371,7 +432,8 @@ class HingeProbeVectorEnv(VectorEnv):
         self.single_action_space = single_action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._obs: list[Any] = [None] * self.num_envs
+        self._started = np.zeros(self.num_envs, dtype=bool)  # reset at least once
+        self._sizes = [worker.size for worker in self._workers] or [self.num_envs]
 
     @property
     def envs(self) -> list[gym.Env]:
@@ -405,12 +467,11 @@ class HingeProbeVectorEnv(VectorEnv):
         seeds = self._seeds(seed)
         options = dict(options or {})
         mask = self._reset_mask(options.pop("reset_mask", None))
-        infos: dict[str, Any] = {}
-        for i, result in enumerate(self._run("reset", options or None, rows=(seeds, mask))):
-            if result is not None:
-                self._obs[i], info = result
-                infos = self._add_info(infos, info, i)
-        return self._batched_obs(), infos
+        parts = self._run("reset", options or None, rows=(seeds, mask))
+        self._started |= mask
+        return _join([obs for obs, _ in parts]), _join_infos(
+            [info for _, info in parts], self._sizes
+        )
 
     def step(self, actions):
         """Step every sub-env with its row of ``actions`` (an array of shape
@@ -420,20 +481,18 @@ class HingeProbeVectorEnv(VectorEnv):
         expected = (self.num_envs, *self.single_action_space.shape)
         if actions.shape != expected:
             raise ValueError(f"actions must have shape {expected}, got {actions.shape}")
-        rewards = np.zeros(self.num_envs, dtype=np.float64)
-        terminations = np.zeros(self.num_envs, dtype=bool)
-        truncations = np.zeros(self.num_envs, dtype=bool)
-        infos: dict[str, Any] = {}
-        for i, result in enumerate(self._run("step", rows=(actions,))):
-            self._obs[i], rewards[i], terminations[i], truncations[i], info, final = result
-            if final is not None:
-                infos = self._add_info(infos, {"final_obs": final[0], "final_info": final[1]}, i)
-            infos = self._add_info(infos, info, i)
-        return self._batched_obs(), rewards, terminations, truncations, infos
+        obs, rewards, terminations, truncations, infos = zip(*self._run("step", rows=(actions,)))
+        return (
+            _join(obs),
+            _join(rewards),
+            _join(terminations),
+            _join(truncations),
+            _join_infos(infos, self._sizes),
+        )
 
     def render(self) -> tuple[Any, ...]:
         """Every sub-env's frame (``render_mode="rgb_array"``), in order."""
-        return tuple(self._run("render"))
+        return self._each("render")
 
     def close_extras(self, **kwargs: Any) -> None:
         """Close every sub-env (and its PyBullet client) and stop the workers; ``close()``
@@ -453,11 +512,11 @@ class HingeProbeVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ sub-env access
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Call the method ``name`` of every sub-env (or read it, if not callable)."""
-        return tuple(self._run("call", name, args, kwargs))
+        return self._each("call", name, args, kwargs)
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """The attribute ``name`` of every sub-env."""
-        return tuple(self._run("get_attr", name))
+        return self._each("get_attr", name)
 
     def set_attr(self, name: str, values: Any) -> None:
         """Set ``name`` on every sub-env: one value each from a list or tuple of
@@ -468,7 +527,7 @@ class HingeProbeVectorEnv(VectorEnv):
             raise ValueError(
                 f"set_attr needs one value per sub-env ({self.num_envs}), got {len(values)}"
             )
-        self._run("set_attr", name, rows=(values,))
+        self._each("set_attr", name, rows=(values,))
 
     @property
     def np_random_seed(self) -> tuple[int | None, ...]:
@@ -501,11 +560,11 @@ class HingeProbeVectorEnv(VectorEnv):
 
     def _run(self, method: str, *args: Any, rows: Sequence[Sequence] = ()) -> list:
         """``_Block.<method>`` on every block, with each block's slice of ``rows`` (one row
-        per sub-env each) and then ``args``; the results of all sub-envs, in order."""
+        per sub-env each) and then ``args``; the blocks' results, in order."""
         if self.closed:
             raise RuntimeError("this vector env is closed")
         if self._local is not None:
-            return getattr(self._local, method)(*rows, *args)
+            return [getattr(self._local, method)(*rows, *args)]
         messages = []
         for worker in self._workers:
             block_rows = [row[worker.first : worker.first + worker.size] for row in rows]
@@ -515,7 +574,11 @@ class HingeProbeVectorEnv(VectorEnv):
                 raise TypeError(
                     f"the arguments of {method} must pickle to reach the worker processes: {error}"
                 ) from error
-        return [result for results in self._exchange(messages) for result in results]
+        return self._exchange(messages)
+
+    def _each(self, method: str, *args: Any, rows: Sequence[Sequence] = ()) -> tuple:
+        """``_run`` of a method that gives one result per sub-env: the results, in order."""
+        return tuple(result for part in self._run(method, *args, rows=rows) for result in part)
 
     def _exchange(self, messages: list[bytes]) -> list:
         """Send each worker its message (none: wait for the replies to their start), then
@@ -563,11 +626,6 @@ class HingeProbeVectorEnv(VectorEnv):
                 f"options['reset_mask'] must be a bool array of shape ({self.num_envs},) with"
                 f" at least one True, got {mask!r}"
             )
-        if any(self._obs[i] is None for i in np.flatnonzero(~mask)):
+        if not self._started[~mask].all():
             raise ValueError("reset every sub-env once (no reset_mask) before a masked reset")
         return mask
-
-    def _batched_obs(self):
-        """The sub-envs' observations stacked into fresh arrays (the caller may keep them)."""
-        space = self.single_observation_space
-        return concatenate(space, self._obs, create_empty_array(space, self.num_envs))
