@@ -26,6 +26,7 @@ sub-env names its index, in a worker too; a worker that dies is a ``RuntimeError
 from __future__ import annotations
 
 import multiprocessing
+import os
 import pickle
 import signal
 import traceback
@@ -271,10 +272,14 @@ def _send(conn, reply: tuple, what: str) -> None:
     conn.send_bytes(data)
 
 
-def _serve(conn, env_fn, kwargs, first, size, num_envs, autoreset_mode) -> None:
+def _serve(conn, env_fn, kwargs, first, size, num_envs, autoreset_mode, cpu) -> None:
     """A worker process: build a block, send its first sub-env's description, then run the
     block's methods the vector env asks for until it says ``"close"`` or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the vector env's to handle
+    if cpu is not None:
+        # Unpinned, the scheduler woke the workers on one core as often as not
+        # (docs/design.md 7.9).
+        os.sched_setaffinity(0, {cpu})
     try:
         block = _Block(env_fn, kwargs, first, size, num_envs, autoreset_mode)
     except Exception as error:
@@ -310,12 +315,13 @@ class _Worker:
         kwargs: dict[str, Any],
         num_envs: int,
         autoreset_mode: AutoresetMode,
+        cpu: int | None,
     ) -> None:
         self.index, self.first, self.size = index, first, size
         self.conn, child = context.Pipe()
         self.process = context.Process(
             target=_serve,
-            args=(child, env_fn, kwargs, first, size, num_envs, autoreset_mode),
+            args=(child, env_fn, kwargs, first, size, num_envs, autoreset_mode, cpu),
             name=f"HingeProbeVectorEnv worker {index}",
             daemon=True,  # ended with the vector env's process, whatever happens to it
         )
@@ -546,11 +552,22 @@ class HingeProbeVectorEnv(VectorEnv):
         context = _context()
         sizes = [len(b) for b in np.array_split(np.arange(self.num_envs), self.workers)]
         firsts = np.cumsum([0, *sizes[:-1]]).tolist()
+        # Worker k on the k-th of the CPUs this process may use, where the OS can pin.
+        cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_setaffinity") else []
         try:
             for k, (first, size) in enumerate(zip(firsts, sizes)):
+                cpu = cpus[k % len(cpus)] if cpus else None
                 self._workers.append(
                     _Worker(
-                        context, k, first, size, env_fn, kwargs, self.num_envs, self.autoreset_mode
+                        context,
+                        k,
+                        first,
+                        size,
+                        env_fn,
+                        kwargs,
+                        self.num_envs,
+                        self.autoreset_mode,
+                        cpu,
                     )
                 )
             return self._exchange([])[0]
