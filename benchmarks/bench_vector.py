@@ -1,23 +1,27 @@
 """The vector env's throughput against bare physics in the same run (``docs/design.md`` 7.9).
 
-    python benchmarks/bench_vector.py [--n-envs 1 4 16 64] [--control-steps 800]
+    python benchmarks/bench_vector.py [--n-envs 1 4 16 64] [--workers 1 2]
+                                      [--control-steps 800]
                                       [--ids tactile_gym/HingeProbe-v1 ...]
 
 A sub-env's memory and build time, then two tables. The first times bare ``stepSimulation``
 (one control step's substeps) for N scenes laid out as N PyBullet clients of one object each,
 or one client holding N objects, which is the choice behind the vector env's layout. The
-second, per id, steps ``gym.make_vec(id, num_envs=N)`` with random actions and with the
-scripted baseline (``agents.scripted.scripted_policy``, one per sub-env) and gives the wall
-time per sub-env control step as a multiple of bare physics
-(``bench_env.bare_physics_per_control_step`` on a sub-env's scene after the row, the least of
-three calls), and sub-env steps/s (primitives for the primitive ids). The first reset is not
-timed; ended sub-envs are reset within a step (same-step autoreset, as SB3 trains), so those
-resets are timed with their step.
+second, per id, steps ``gym.make_vec(id, num_envs=N, workers=k)`` (in this process for k = 1,
+in k worker processes otherwise; rows with k > N are skipped) with random actions and with
+the scripted baseline (``agents.scripted.scripted_policy``, one per sub-env) and gives the
+wall time per sub-env control step as a multiple of bare physics
+(``bench_env.bare_physics_per_control_step`` on a scene of the id made in this process, after
+the row, the least of three calls), and sub-env steps/s (primitives for the primitive ids).
+The first reset and the first step are not timed (a worker's first step loads the compiled
+kernels); ended sub-envs are reset within a step (same-step autoreset, as SB3 trains), so
+those resets are timed with their step.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import sys
 import time
@@ -99,21 +103,29 @@ def footprint(env_id: str, n: int = 16) -> str:
     return f"`{env_id}`: {mib:.0f} MiB and {seconds:.2f} s to make and reset per sub-env (N = {n})"
 
 
-def time_vector(env_id: str, n: int, policy: str, control_steps: int) -> dict[str, float]:
-    """Time ``gym.make_vec(env_id, num_envs=n)`` for about ``control_steps`` sub-env control
-    steps in all."""
+def time_vector(
+    env_id: str, n: int, workers: int, policy: str, control_steps: int
+) -> dict[str, float]:
+    """Time ``gym.make_vec(env_id, num_envs=n, workers=workers)`` for about
+    ``control_steps`` sub-env control steps in all."""
     envs = gym.make_vec(
         env_id,
         num_envs=n,
         vectorization_mode="vector_entry_point",
         autoreset_mode=AutoresetMode.SAME_STEP,
+        workers=workers,
     )
+    # The scripted policies read only the id's configuration, so one env of the id made here
+    # serves them (the sub-envs may be in workers) and the bare physics.
+    reference = gym.make(env_id)
+    reference.reset(seed=0)
     primitive = envs.single_action_space.shape == (3,)
-    policies = [scripted_policy(env) for env in envs.envs]
+    policies = [scripted_policy(reference) for _ in range(n)]
     for pol in policies:
         pol.reset()
-    obs, _ = envs.reset(seed=0)
+    envs.reset(seed=0)
     envs.action_space.seed(0)
+    obs, *_ = envs.step(np.zeros(envs.action_space.shape, np.float32))  # warm-up, not timed
     per_step = 13 if primitive else 1  # control steps, to size the run
     vector_steps = max(control_steps // (n * per_step), 3)
     elapsed, done_steps, done_control = 0.0, 0, 0
@@ -136,9 +148,10 @@ def time_vector(env_id: str, n: int, policy: str, control_steps: int) -> dict[st
             done_control += n
         for i in np.flatnonzero(ended):
             policies[i].reset()
-    # The least of three, as the least disturbed by other jobs on a shared machine.
-    bare = min(bare_physics_per_control_step(envs.envs[0]) for _ in range(3))
     envs.close()
+    # The least of three, as the least disturbed by other jobs on a shared machine.
+    bare = min(bare_physics_per_control_step(reference) for _ in range(3))
+    reference.close()
     return {
         "steps/s": done_steps / elapsed,
         "control steps/s": done_control / elapsed,
@@ -165,21 +178,26 @@ def layout_table(sizes: list[int]) -> str:
     return "\n".join(lines)
 
 
-def vector_table(env_id: str, sizes: list[int], control_steps: int) -> str:
+def vector_table(
+    env_id: str, sizes: list[int], worker_counts: list[int], control_steps: int
+) -> str:
     primitive = "Primitive" in env_id
     step = "primitives" if primitive else "sub-env steps"
     lines = [
-        f"`{env_id}`, about {control_steps} sub-env control steps per row",
+        f"`{env_id}`, about {control_steps} sub-env control steps per row; wall time",
         "",
-        f"| N | policy | {step}/s | control steps/s | us per sub-env control step |"
+        f"| N | workers | policy | {step}/s | control steps/s | us per sub-env control step |"
         " bare physics us per control step | control step / bare physics |",
-        "|---:|---|---:|---:|---:|---:|---:|",
+        "|---:|---:|---|---:|---:|---:|---:|---:|",
     ]
     for n in sizes:
-        for policy in ("random", "scripted"):
-            r = time_vector(env_id, n, policy, control_steps)
+        for workers, policy in itertools.product(worker_counts, ("random", "scripted")):
+            if workers > n:
+                continue
+            r = time_vector(env_id, n, workers, policy, control_steps)
             lines.append(
-                f"| {n} | {policy} | {r['steps/s']:,.0f} | {r['control steps/s']:,.0f} |"
+                f"| {n} | {workers} | {policy} | {r['steps/s']:,.0f} |"
+                f" {r['control steps/s']:,.0f} |"
                 f" {r['us/control step']:.0f} | {r['bare us/control step']:.1f} |"
                 f" {r['us/control step'] / r['bare us/control step']:.0f}x |"
             )
@@ -189,6 +207,9 @@ def vector_table(env_id: str, sizes: list[int], control_steps: int) -> str:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n-envs", type=int, nargs="+", default=[1, 4, 16, 64])
+    parser.add_argument(
+        "--workers", type=int, nargs="+", default=[1, 2], help="worker processes per row"
+    )
     parser.add_argument(
         "--control-steps", type=int, default=800, help="sub-env control steps per row"
     )
@@ -200,7 +221,7 @@ def main(argv: list[str] | None = None) -> None:
     print(layout_table(args.n_envs))
     for env_id in args.ids:
         print()
-        print(vector_table(env_id, args.n_envs, args.control_steps))
+        print(vector_table(env_id, args.n_envs, args.workers, args.control_steps))
     print(f"\nload average {os.getloadavg()[0]:.2f} at the end")
 
 
