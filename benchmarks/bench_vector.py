@@ -11,8 +11,9 @@ second, per id, steps ``gym.make_vec(id, num_envs=N, workers=k)`` (in this proce
 in k worker processes otherwise; rows with k > N are skipped) with random actions and with
 the scripted baseline (``agents.scripted.scripted_policy``, one per sub-env) and gives the
 wall time per sub-env control step as a multiple of bare physics
-(``bench_env.bare_physics_per_control_step`` on a scene of the id made in this process, after
-the row, the least of three calls), and sub-env steps/s (primitives for the primitive ids).
+(``bench_env.bare_physics_per_control_step`` on a scene of the id made in this process, the
+least of three calls before the row and three after), and sub-env steps/s (primitives for the
+primitive ids).
 The first reset and the first step are not timed (a worker's first step loads the compiled
 kernels); ended sub-envs are reset within a step (same-step autoreset, as SB3 trains), so
 those resets are timed with their step.
@@ -108,6 +109,12 @@ def time_vector(
 ) -> dict[str, float]:
     """Time ``gym.make_vec(env_id, num_envs=n, workers=workers)`` for about
     ``control_steps`` sub-env control steps in all."""
+    # The scripted policies read only the id's configuration, so one env of the id made here
+    # serves them (the sub-envs may be in workers) and the bare physics: the least of three
+    # calls before the row and three after, as the least disturbed by other jobs.
+    reference = gym.make(env_id)
+    reference.reset(seed=0)
+    bare = min(bare_physics_per_control_step(reference) for _ in range(3))
     envs = gym.make_vec(
         env_id,
         num_envs=n,
@@ -115,10 +122,6 @@ def time_vector(
         autoreset_mode=AutoresetMode.SAME_STEP,
         workers=workers,
     )
-    # The scripted policies read only the id's configuration, so one env of the id made here
-    # serves them (the sub-envs may be in workers) and the bare physics.
-    reference = gym.make(env_id)
-    reference.reset(seed=0)
     primitive = envs.single_action_space.shape == (3,)
     policies = [scripted_policy(reference) for _ in range(n)]
     for pol in policies:
@@ -149,8 +152,7 @@ def time_vector(
         for i in np.flatnonzero(ended):
             policies[i].reset()
     envs.close()
-    # The least of three, as the least disturbed by other jobs on a shared machine.
-    bare = min(bare_physics_per_control_step(reference) for _ in range(3))
+    bare = min(bare, *(bare_physics_per_control_step(reference) for _ in range(3)))
     reference.close()
     return {
         "steps/s": done_steps / elapsed,
