@@ -19,9 +19,9 @@ nothing behind. A run that fails later leaves no folder if it saved no model, el
 ``failed.txt`` saying why; an interrupted run with checkpoints can continue from the latest
 (``train(..., run_dir=..., resume=True)``, what ``agents.sweep`` does).
 
-The envs run in this process as the package's vector env (``gym.make_vec``, ``docs/design.md``
-7.9, through :mod:`agents.vec_env`) unless every env worker can have a core of its own beside
-the learner (:func:`choose_vec_env`); ``--vec-env`` overrides that choice.
+The envs run as the package's vector env (``gym.make_vec``, ``docs/design.md`` 7.9, through
+:mod:`agents.vec_env`), in this process or in worker processes as :func:`choose_env_workers`
+decides from the id and the cores; ``--env-workers`` and ``--vec-env`` override that.
 """
 
 from __future__ import annotations
@@ -45,6 +45,7 @@ import yaml
 
 import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
+from tactile_gym.validation import check_int
 
 from .cli import (
     KEY_VALUE_HELP,
@@ -59,7 +60,7 @@ from .progress import progress_lines
 from .seeds import DEMO_SEED, SELECTION_SEED, seed_ranges
 
 ALGOS = ("ppo", "sac")
-VEC_ENVS = ("auto", "vector", "dummy", "subproc")
+VEC_ENVS = ("vector", "dummy", "subproc")
 #: The env trained and evaluated when none is named.
 DEFAULT_ENV_ID = tactile_gym.ENV_IDS[0]
 #: Keys of a training config that are not constructor arguments of the algorithm.
@@ -100,21 +101,25 @@ def available_cpus() -> int:
         return os.cpu_count() or 1
 
 
-def choose_vec_env(n_envs: int, n_cpus: int) -> str:
-    """``"subproc"`` when each env worker gets a core of its own beside the learner, else
-    ``"vector"`` (the package's vector env in this process).
+def choose_env_workers(env_id: str, n_envs: int, n_cpus: int) -> int:
+    """How many processes step the vector env's sub-envs (``workers``, ``docs/design.md``
+    7.9): 1 is this process, beside the learner.
 
-    On 2 cores shared with other jobs, PPO with 2 envs in this process ran 1.16x and 1.44x
-    as fast as with 2 subprocesses (0.90x in a third run, 1.05x on quiet cores;
-    ``benchmarks/bench_train.py``): the
-    workers and the learner only take turns on the same cores, and every step pays for
-    pickling observations between processes.
+    A primitive id's step is a whole primitive, about 10 ms of env work against well under
+    1 ms per round trip to the workers: one worker per env up to the cores, the learner
+    sharing them (it takes about 7 % of a core). On 2 cores PPO with 2 envs trained 1.3x as
+    fast with 2 workers as in-process (``benchmarks/bench_train.py``). A 6-D id's step is
+    about 0.5 ms, the cost of a round trip: workers only when each gets a core of its own
+    beside the learner, else in-process (2 subprocesses on 2 cores trained at 0.6x).
 
     Args:
+        env_id: the id trained.
         n_envs: parallel envs.
         n_cpus: cores the run may use.
     """
-    return "subproc" if n_envs > 1 and n_cpus >= n_envs + 1 else "vector"
+    if env_id in tactile_gym.PRIMITIVE_ENV_IDS:
+        return max(1, min(n_envs, n_cpus))
+    return n_envs if n_envs > 1 and n_cpus >= n_envs + 1 else 1
 
 
 @contextlib.contextmanager
@@ -304,7 +309,8 @@ def train(
     eval_episodes: int = 20,
     checkpoint_freq: int = 50_000,
     progress_bar: bool = False,
-    vec_env: str = "auto",
+    vec_env: str = "vector",
+    env_workers: int | None = None,
     n_cpus: int | None = None,
     n_threads: int | None = None,
     device: str = "cpu",
@@ -333,9 +339,10 @@ def train(
         checkpoint_freq: env steps (summed over envs) between checkpoints; 0 disables them.
         progress_bar: show a progress bar (needs tqdm and rich); without it, a line every
             30 s (:func:`progress_lines`).
-        vec_env: ``"auto"`` (:func:`choose_vec_env`), ``"vector"`` (the package's vector
-            env: N scenes in this process), ``"subproc"`` (one process per env) or
-            ``"dummy"`` (SB3's loop over single envs in this process).
+        vec_env: ``"vector"`` (the package's vector env), ``"subproc"`` (SB3's, one process
+            per env) or ``"dummy"`` (SB3's loop over single envs in this process).
+        env_workers: with ``"vector"``, how many processes step the sub-envs (1: this
+            process); defaults to :func:`choose_env_workers`'s choice.
         n_cpus: cores the run may use; defaults to this process's CPU affinity.
         n_threads: torch threads; defaults to ``DEFAULT_TORCH_THREADS``.
         device: torch device.
@@ -373,7 +380,11 @@ def train(
     n_cpus = int(n_cpus or available_cpus())
     if n_cpus < 1:
         raise ValueError(f"n_cpus must be >= 1, got {n_cpus}")
-    resolved_vec_env = choose_vec_env(n_envs, n_cpus) if vec_env == "auto" else vec_env
+    if vec_env == "vector":
+        workers = choose_env_workers(env_id, n_envs, n_cpus) if env_workers is None else env_workers
+        workers = check_int("env_workers", workers, 1, n_envs)
+    elif env_workers is not None:
+        raise ValueError(f"env_workers needs vec_env 'vector', got vec_env {vec_env!r}")
     n_threads = int(n_threads or DEFAULT_TORCH_THREADS)
     recipe = load_recipe(preset_path("train", config_path or algo), env_id, warm_start)
     if recipe.enabled and algo != "ppo":
@@ -385,12 +396,12 @@ def train(
     def make_envs(n: int, first_seed: int):
         """``n`` envs seeded ``first_seed + i``; the training and the evaluation envs are
         wrapped alike, as SB3's syncing of normalisation statistics requires."""
-        if resolved_vec_env == "vector":
+        if vec_env == "vector":
             # VecMonitor keeps the episode records that one Monitor per env would.
-            envs = VecMonitor(make_sb3_vec_env(env_id, n, **run_env_kwargs))
+            envs = VecMonitor(make_sb3_vec_env(env_id, n, min(workers, n), **run_env_kwargs))
             envs.seed(first_seed)
             return envs
-        vec_cls = SubprocVecEnv if resolved_vec_env == "subproc" and n > 1 else DummyVecEnv
+        vec_cls = SubprocVecEnv if vec_env == "subproc" and n > 1 else DummyVecEnv
         return make_vec_env(factory, n_envs=n, seed=first_seed, vec_env_cls=vec_cls)
 
     # The envs first: a bad env keyword fails here, before a run folder exists.
@@ -428,7 +439,12 @@ def train(
             "vec_env": vec_env,
             "config_path": str(config_path) if config_path else None,
         },
-        "resources": {"n_cpus": n_cpus, "vec_env": resolved_vec_env, "torch_threads": n_threads},
+        "resources": {
+            "n_cpus": n_cpus,
+            "vec_env": vec_env,
+            "env_workers": workers if vec_env == "vector" else None,
+            "torch_threads": n_threads,
+        },
         "hyperparameters": config,
         "warm_start": recipe.as_dict(),
         "seeds": {
@@ -617,10 +633,17 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument(
         "--vec-env",
         choices=VEC_ENVS,
-        default="auto",
-        help="vector: the package's vector env, N scenes in this process; subproc: one process "
-        "per env; dummy: SB3's loop over single envs; auto: subproc only when every env gets a "
-        "core of its own beside the learner, else vector",
+        default="vector",
+        help="vector: the package's vector env; subproc: SB3's, one process per env; dummy: "
+        "SB3's loop over single envs in this process",
+    )
+    parser.add_argument(
+        "--env-workers",
+        type=int,
+        default=None,
+        help="with --vec-env vector, processes that step the envs (1: this process); default: "
+        "one per env up to the cores for the primitive ids, and for the 6-D ids only when each "
+        "gets a core beside the learner (agents.train.choose_env_workers)",
     )
     parser.add_argument(
         "--n-cpus", type=int, default=None, help="cores the run may use; default: all it may"
@@ -653,6 +676,7 @@ def main(argv: list[str] | None = None) -> Path:
         checkpoint_freq=args.checkpoint_freq,
         progress_bar=not args.no_progress_bar,
         vec_env=args.vec_env,
+        env_workers=args.env_workers,
         n_cpus=args.n_cpus,
         n_threads=args.torch_threads,
         device=args.device,

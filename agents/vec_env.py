@@ -1,7 +1,8 @@
 """Stable-Baselines3's ``VecEnv`` over the package's vector env (``docs/design.md`` 7.9).
 
-``make_sb3_vec_env(env_id, n_envs)`` makes ``gym.make_vec(env_id, num_envs=n_envs)`` (N
-scenes in this process, ``tactile_gym.envs.vector``) with same-step autoreset and hands it
+``make_sb3_vec_env(env_id, n_envs, workers)`` makes ``gym.make_vec(env_id, num_envs=n_envs,
+workers=workers)`` (N scenes in this process or spread over worker processes,
+``tactile_gym.envs.vector``) with same-step autoreset and hands it
 to SB3 as a ``VecEnv``: what ``DummyVecEnv`` over ``n_envs`` ``gym.make(env_id)`` envs would
 give, without a Python loop of SB3's own around the envs. As SB3 expects, a sub-env whose
 episode ended is reset in the same step, its last observation goes in the info as
@@ -13,8 +14,10 @@ Stable-Baselines3 is only in the ``[train]`` extra, so only ``agents`` imports t
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Sequence
+from operator import methodcaller
 from typing import Any
 
 import gymnasium as gym
@@ -24,7 +27,7 @@ from stable_baselines3.common.env_util import is_wrapped
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices
 
 import tactile_gym  # noqa: F401 - registers the ids
-from tactile_gym.envs.vector import HingeProbeVectorEnv
+from tactile_gym.envs.vector import HingeProbeVectorEnv, call_or_read
 
 __all__ = ["HingeProbeSB3VecEnv", "make_sb3_vec_env", "unbatch_infos"]
 
@@ -32,13 +35,17 @@ __all__ = ["HingeProbeSB3VecEnv", "make_sb3_vec_env", "unbatch_infos"]
 _FINAL_KEYS = ("final_obs", "final_info")
 
 
-def make_sb3_vec_env(env_id: str, n_envs: int, **env_kwargs: Any) -> HingeProbeSB3VecEnv:
-    """SB3's ``VecEnv`` of ``n_envs`` sub-envs of ``env_id`` with ``gym.make``'s keywords."""
+def make_sb3_vec_env(
+    env_id: str, n_envs: int, workers: int = 1, **env_kwargs: Any
+) -> HingeProbeSB3VecEnv:
+    """SB3's ``VecEnv`` of ``n_envs`` sub-envs of ``env_id`` with ``gym.make``'s keywords,
+    stepped in this process (``workers=1``) or in ``workers`` processes."""
     vector = gym.make_vec(
         env_id,
         num_envs=n_envs,
         vectorization_mode="vector_entry_point",
         autoreset_mode=AutoresetMode.SAME_STEP,
+        workers=workers,
         **env_kwargs,
     )
     return HingeProbeSB3VecEnv(vector)
@@ -135,24 +142,23 @@ class HingeProbeSB3VecEnv(VecEnv):
         return list(self.vector_env.render())
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        return [env.get_wrapper_attr(attr_name) for env in self._targets(indices)]
+        fn = methodcaller("get_wrapper_attr", attr_name)
+        return list(self.vector_env.apply(fn, self._get_indices(indices)))
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
-        for env in self._targets(indices):
-            env.set_wrapper_attr(attr_name, value)
+        fn = methodcaller("set_wrapper_attr", attr_name, value)
+        self.vector_env.apply(fn, self._get_indices(indices))
 
     def env_method(
         self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs
     ) -> list[Any]:
-        return [
-            env.get_wrapper_attr(method_name)(*method_args, **method_kwargs)
-            for env in self._targets(indices)
-        ]
+        fn = functools.partial(
+            call_or_read, name=method_name, args=method_args, kwargs=method_kwargs
+        )
+        return list(self.vector_env.apply(fn, self._get_indices(indices)))
 
     def env_is_wrapped(
         self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None
     ) -> list[bool]:
-        return [is_wrapped(env, wrapper_class) for env in self._targets(indices)]
-
-    def _targets(self, indices: VecEnvIndices) -> list[gym.Env]:
-        return [self.vector_env.envs[i] for i in self._get_indices(indices)]
+        fn = functools.partial(is_wrapped, wrapper_class=wrapper_class)
+        return list(self.vector_env.apply(fn, self._get_indices(indices)))

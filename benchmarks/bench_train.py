@@ -71,7 +71,9 @@ def _factory(env_id: str, env_kwargs: dict, dummy: bool):
     return make
 
 
-def _vec_env(env_id, config, vec_env: str, dummy: bool):
+def _vec_env(env_id, config, workers: int, dummy: bool):
+    """``agents.train``'s envs: the package's vector env with ``workers`` processes, or for
+    the zero-cost env SB3's loop over it (in this process, or one process per env)."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import (
         DummyVecEnv,
@@ -83,27 +85,28 @@ def _vec_env(env_id, config, vec_env: str, dummy: bool):
     from agents.vec_env import make_sb3_vec_env
 
     env_kwargs = dict(config.get("env_kwargs") or {})
-    if vec_env == "vector" and not dummy:
-        env = VecMonitor(make_sb3_vec_env(env_id, int(config["n_envs"]), **env_kwargs))
+    n_envs = int(config["n_envs"])
+    if not dummy:
+        env = VecMonitor(make_sb3_vec_env(env_id, n_envs, workers, **env_kwargs))
         env.seed(0)
     else:
         # The zero-cost env has no vector env of its own: SB3's loop over it stands in.
         env = make_vec_env(
             _factory(env_id, env_kwargs, dummy),
-            n_envs=int(config["n_envs"]),
+            n_envs=n_envs,
             seed=0,
-            vec_env_cls=SubprocVecEnv if vec_env == "subproc" else DummyVecEnv,
+            vec_env_cls=SubprocVecEnv if workers > 1 else DummyVecEnv,
         )
     if config.get("normalize"):
         env = VecNormalize(env, gamma=config.get("gamma", 0.99))
     return env
 
 
-def time_training(algo, env_id, config, vec_env, threads, steps, dummy) -> float:
+def time_training(algo, env_id, config, workers, threads, steps, dummy) -> float:
     """Seconds of ``learn(steps)`` after an untimed warm-up ``learn`` of one rollout."""
     from stable_baselines3 import PPO, SAC
 
-    env = _vec_env(env_id, config, vec_env, dummy)
+    env = _vec_env(env_id, config, workers, dummy)
     try:
         with train_mod.torch_threads(threads):
             model = {"ppo": PPO, "sac": SAC}[algo](
@@ -118,9 +121,9 @@ def time_training(algo, env_id, config, vec_env, threads, steps, dummy) -> float
         env.close()
 
 
-def time_env_only(env_id, config, vec_env, steps) -> float:
+def time_env_only(env_id, config, workers, steps) -> float:
     """Seconds to step the vector env ``steps`` times (summed over envs), random actions."""
-    env = _vec_env(env_id, config, vec_env, dummy=False)
+    env = _vec_env(env_id, config, workers, dummy=False)
     try:
         env.reset()
         env.action_space.seed(0)
@@ -147,28 +150,36 @@ def main(argv: list[str] | None = None) -> list[dict]:
 
     config = train_mod.resolve_config(args.algo, args.env, n_envs=args.n_envs)
     n_envs, n_cpus = int(config["n_envs"]), train_mod.available_cpus()
-    chosen = train_mod.choose_vec_env(n_envs, n_cpus)
-    other = "subproc" if chosen == "dummy" else "dummy"  # vector or subproc against dummy
+    chosen = train_mod.choose_env_workers(args.env, n_envs, n_cpus)
+    other = 1 if chosen > 1 else min(n_envs, n_cpus)  # in-process against workers
     threads = train_mod.DEFAULT_TORCH_THREADS
     more = 2 * threads
-    cases = [  # (label, vec env, torch threads, dummy env)
-        (f"env, {chosen} (agents.train's choice), {threads} thread", chosen, threads, False),
-        (f"dummy env, {chosen}, {threads} thread", chosen, threads, True),
-        (f"env, {other}, {threads} thread", other, threads, False),
-        (f"dummy env, {other}, {threads} thread", other, threads, True),
-        (f"env, {chosen}, {more} threads", chosen, more, False),
+
+    def workers(k: int) -> str:
+        return "in-process" if k == 1 else f"{k} workers"
+
+    cases = [  # (label, workers, torch threads, dummy env)
+        (
+            f"env, {workers(chosen)} (agents.train's choice), {threads} thread",
+            chosen,
+            threads,
+            False,
+        ),
+        (f"dummy env, {workers(chosen)}, {threads} thread", chosen, threads, True),
+        (f"env, {workers(other)}, {threads} thread", other, threads, False),
+        (f"dummy env, {workers(other)}, {threads} thread", other, threads, True),
+        (f"env, {workers(chosen)}, {more} threads", chosen, more, False),
     ]
     # Round-robin over the cases, so that a burst of load from elsewhere hits them all alike;
     # each case keeps its fastest run.
     best = [math.inf] * (len(cases) + 1)
     for _ in range(args.repeats):
-        for i, (_, vec_env, n_threads, dummy) in enumerate(cases):
-            seconds = time_training(
-                args.algo, args.env, config, vec_env, n_threads, args.steps, dummy
-            )
+        for i, (_, k, n_threads, dummy) in enumerate(cases):
+            seconds = time_training(args.algo, args.env, config, k, n_threads, args.steps, dummy)
             best[i] = min(best[i], seconds)
         best[-1] = min(best[-1], time_env_only(args.env, config, chosen, args.steps))
-    labels = [f"train: {case[0]}" for case in cases] + [f"env only, random actions, {chosen}"]
+    labels = [f"train: {case[0]}" for case in cases]
+    labels.append(f"env only, random actions, {workers(chosen)}")
     rows = [{"case": label, "seconds": seconds} for label, seconds in zip(labels, best)]
 
     print(
@@ -181,11 +192,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
         print(f"| {row['case']} | {rate:,.0f} | {1e3 / rate:.2f} |")
     t_env, t_dummy = rows[0]["seconds"], rows[1]["seconds"]
     print(
-        f"\nenv share of training time ({chosen}): {1.0 - t_dummy / t_env:.0%} "
+        f"\nenv share of training time ({workers(chosen)}): {1.0 - t_dummy / t_env:.0%} "
         f"(1 - t_dummy / t_env); stepping the env alone takes "
-        f"{rows[-1]['seconds'] / t_env:.0%} of it. {chosen} is {rows[2]['seconds'] / t_env:.2f}x "
-        f"as fast as {other}, {threads} torch thread {rows[4]['seconds'] / t_env:.2f}x as fast "
-        f"as {more}."
+        f"{rows[-1]['seconds'] / t_env:.0%} of it. {workers(chosen)} is "
+        f"{rows[2]['seconds'] / t_env:.2f}x as fast as {workers(other)}, {threads} torch thread "
+        f"{rows[4]['seconds'] / t_env:.2f}x as fast as {more}."
     )
     return rows
 

@@ -54,6 +54,13 @@ _TASKS = (
 ENV_IDS: tuple[str, ...] = tuple(f"tactile_gym/{name}-v2" for name, _, _ in _TASKS)
 #: The v1 ids, the same tasks with the ideal sensor, no tare and the v1 gate.
 LEGACY_ENV_IDS: tuple[str, ...] = tuple(i.replace("-v2", "-v1") for i in ENV_IDS)
+#: The ids (v2 and v1) whose step is one probing primitive, many control steps long.
+PRIMITIVE_ENV_IDS: tuple[str, ...] = tuple(
+    f"tactile_gym/{name}-{version}"
+    for version in ("v2", "v1")
+    for name, entries, _ in _TASKS
+    if entries is _PRIMITIVE
+)
 
 for _version, _extra in (("v2", {}), ("v1", _V1)):
     for _name, (_entry, _vector_entry), _kwargs in _TASKS:
@@ -64,4 +71,4 @@ for _version, _extra in (("v2", {}), ("v1", _V1)):
             kwargs={**_kwargs, **_extra},
         )
 
-__all__ = ["ENV_IDS", "LEGACY_ENV_IDS", "__version__"]
+__all__ = ["ENV_IDS", "LEGACY_ENV_IDS", "PRIMITIVE_ENV_IDS", "__version__"]

@@ -41,12 +41,12 @@ def flat_ppo_run(tmp_path_factory):
     )  # fmt: skip
 
 
-def _sac_run(tmp_path, vec_env: str):
+def _sac_run(tmp_path, vec_env: str, *more: str):
     pytest.importorskip("stable_baselines3")
     run_dir = train.main(
         ["--algo", "sac", "--n-timesteps", "64", "--n-envs", "2", "--log-folder", str(tmp_path),
          "--eval-freq", "0", "--checkpoint-freq", "0", "--no-progress-bar", "--vec-env",
-         vec_env, "--config", str(_tiny_config(tmp_path, "sac"))]
+         vec_env, "--config", str(_tiny_config(tmp_path, "sac")), *more]
     )  # fmt: skip
     record = yaml.safe_load((run_dir / "config.yml").read_text())
     assert record["hyperparameters"]["n_envs"] == 2
@@ -58,6 +58,9 @@ def _sac_run(tmp_path, vec_env: str):
 def test_training_in_worker_processes(tmp_path):
     # Two envs run in worker processes, which must register the ids themselves.
     run_dir, _ = _sac_run(tmp_path, "subproc")
+    assert (run_dir / "final_model.zip").exists()
+    run_dir, record = _sac_run(tmp_path, "vector", "--env-workers", "2")
+    assert record["resources"]["env_workers"] == 2
     assert (run_dir / "final_model.zip").exists()
 
 
@@ -103,10 +106,11 @@ def test_training_records_resolved_run(flat_ppo_run):
     hyper = record["hyperparameters"]
     assert hyper["env_kwargs"] == {"observation_mode": "flat"}
     assert hyper["policy"] == "MlpPolicy"
-    # 2 cores or fewer: the envs share them with the learner, so they run in-process, as
-    # the package's vector env.
+    # 2 cores or fewer: a 6-D id's envs share them with the learner, so they run in-process,
+    # as the package's vector env.
+    assert record["resources"]["vec_env"] == "vector"
     if train.available_cpus() <= 2:
-        assert record["resources"]["vec_env"] == "vector"
+        assert record["resources"]["env_workers"] == 1
     assert record["resources"]["torch_threads"] == train.DEFAULT_TORCH_THREADS
 
 
@@ -190,15 +194,24 @@ def test_vecnormalize_paths():
     assert checkpoint.as_posix() == "r/checkpoints/rl_model_vecnormalize_500_steps.pkl"
 
 
-def test_vec_env_choice():
-    # Envs that would only share the cores with the learner run in-process.
-    assert train.choose_vec_env(n_envs=2, n_cpus=2) == "vector"
-    assert train.choose_vec_env(n_envs=2, n_cpus=1) == "vector"
-    assert train.choose_vec_env(n_envs=1, n_cpus=16) == "vector"
-    assert train.choose_vec_env(n_envs=2, n_cpus=3) == "subproc"
-    assert train.choose_vec_env(n_envs=8, n_cpus=16) == "subproc"
+def test_env_workers_choice():
+    primitive, six_d = "tactile_gym/HingeProbePrimitive-v2", "tactile_gym/HingeProbe-v2"
+    # A primitive is worth a round trip to a worker: one per env, up to the cores.
+    assert train.choose_env_workers(primitive, n_envs=2, n_cpus=2) == 2
+    assert train.choose_env_workers(primitive, n_envs=8, n_cpus=2) == 2
+    assert train.choose_env_workers(primitive, n_envs=2, n_cpus=1) == 1
+    assert train.choose_env_workers(primitive, n_envs=1, n_cpus=16) == 1
+    # A control step is not, unless every env gets a core of its own beside the learner.
+    assert train.choose_env_workers(six_d, n_envs=2, n_cpus=2) == 1
+    assert train.choose_env_workers(six_d, n_envs=1, n_cpus=16) == 1
+    assert train.choose_env_workers(six_d, n_envs=2, n_cpus=3) == 2
+    assert train.choose_env_workers(six_d, n_envs=8, n_cpus=16) == 8
     with pytest.raises(ValueError, match="vec_env"):
         train.train(vec_env="forkserver")
+    with pytest.raises(ValueError, match="env_workers"):
+        train.train(env_workers=3, n_envs=2)
+    with pytest.raises(ValueError, match="env_workers"):
+        train.train(vec_env="dummy", env_workers=1)
 
 
 def test_hyperparameters_resolve_per_env():

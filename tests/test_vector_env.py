@@ -301,7 +301,7 @@ def test_sub_env_access_and_rendering_across_workers():
     with pytest.raises(TypeError, match="arguments of set_attr must pickle"):
         envs.set_attr("probe_note", lambda: 0)
     envs.set_attr("probe_note", functools.partial(os.walk, "."))  # calling it: a generator
-    with pytest.raises(TypeError, match="call gave a result that cannot be pickled"):
+    with pytest.raises(TypeError, match="apply gave a result that cannot be pickled"):
         envs.call("probe_note")
     assert envs.get_attr("max_primitives") == (3, 4, 5)
     envs.close()
@@ -418,11 +418,13 @@ def _sb3_reference(env_id: str, n_envs: int, **kwargs):
     return dummy([lambda: gym.make(env_id, **kwargs) for _ in range(n_envs)])
 
 
-@pytest.mark.parametrize("env_id", [ENV_IDS[1], ENV_IDS[3]])
-def test_sb3_adapter_matches_dummy_vec_env(env_id):
+@pytest.mark.parametrize(("env_id", "workers"), [(ENV_IDS[1], 1), (ENV_IDS[3], 2)])
+def test_sb3_adapter_matches_dummy_vec_env(env_id, workers):
+    # With workers, get_attr, set_attr, env_method and env_is_wrapped reach the sub-envs in
+    # their processes (HingeProbeVectorEnv.apply).
     vec_env = pytest.importorskip("agents.vec_env")
     kwargs = SHORT[_primitive(env_id)]
-    ours = vec_env.make_sb3_vec_env(env_id, 2, **kwargs)
+    ours = vec_env.make_sb3_vec_env(env_id, 2, workers, **kwargs)
     reference = _sb3_reference(env_id, 2, **kwargs)
     assert ours.observation_space == reference.observation_space
     assert ours.action_space == reference.action_space

@@ -25,6 +25,7 @@ sub-env names its index, in a worker too; a worker that dies is a ``RuntimeError
 
 from __future__ import annotations
 
+import functools
 import multiprocessing
 import os
 import pickle
@@ -48,6 +49,7 @@ __all__ = [
     "MAX_NUM_ENVS",
     "WORKER_EXIT_TIMEOUT",
     "HingeProbeVectorEnv",
+    "call_or_read",
     "make_primitive_vector_env",
     "make_vector_env",
 ]
@@ -84,11 +86,13 @@ def _with_index(error: Exception, index: int, num_envs: int) -> Exception:
     return indexed
 
 
-def _call_or_read(env: gym.Env, name: str, args: tuple, kwargs: dict) -> Any:
-    """What ``VectorEnv.call`` gives for one sub-env: the method ``name`` called, or the
-    attribute read if it is not callable."""
+def call_or_read(env: gym.Env, name: str, args: tuple = (), kwargs: dict | None = None) -> Any:
+    """What ``VectorEnv.call`` gives for one sub-env: the method ``name`` (of the env or a
+    wrapper) called with ``args`` and ``kwargs``, or the attribute read if it is not
+    callable. A module-level function, so that ``functools.partial(call_or_read, ...)`` can
+    go to ``HingeProbeVectorEnv.apply`` in worker processes."""
     attr = env.get_wrapper_attr(name)
-    return attr(*args, **kwargs) if callable(attr) else attr
+    return attr(*args, **(kwargs or {})) if callable(attr) else attr
 
 
 def _description(env: gym.Env) -> tuple:
@@ -165,19 +169,9 @@ class _Block:
         self.ended = terminations | truncations
         return self._batched_obs(), rewards, terminations, truncations, infos
 
-    def render(self) -> list:
-        return [self._call(j, methodcaller("render")) for j in range(len(self.envs))]
-
-    def call(self, name: str, args: tuple, kwargs: dict) -> list:
-        return [
-            self._call(j, lambda env: _call_or_read(env, name, args, kwargs))
-            for j in range(len(self.envs))
-        ]
-
-    def get_attr(self, name: str) -> list:
-        return [
-            self._call(j, methodcaller("get_wrapper_attr", name)) for j in range(len(self.envs))
-        ]
+    def apply(self, mask: np.ndarray, fn: Callable[[gym.Env], Any]) -> list:
+        """``fn`` of each sub-env of ``mask`` (None for the others)."""
+        return [self._call(j, fn) if selected else None for j, selected in enumerate(mask)]
 
     def set_attr(self, values: Sequence, name: str) -> list:
         return [
@@ -497,7 +491,7 @@ class HingeProbeVectorEnv(VectorEnv):
 
     def render(self) -> tuple[Any, ...]:
         """Every sub-env's frame (``render_mode="rgb_array"``), in order."""
-        return self._each("render")
+        return self.apply(methodcaller("render"))
 
     def close_extras(self, **kwargs: Any) -> None:
         """Close every sub-env (and its PyBullet client) and stop the workers; ``close()``
@@ -517,11 +511,31 @@ class HingeProbeVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ sub-env access
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Call the method ``name`` of every sub-env (or read it, if not callable)."""
-        return self._each("call", name, args, kwargs)
+        return self.apply(functools.partial(call_or_read, name=name, args=args, kwargs=kwargs))
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """The attribute ``name`` of every sub-env."""
-        return self._each("get_attr", name)
+        return self.apply(methodcaller("get_wrapper_attr", name))
+
+    def apply(
+        self, fn: Callable[[gym.Env], Any], indices: Sequence[int] | None = None
+    ) -> tuple[Any, ...]:
+        """``fn(sub_env)`` for the sub-envs ``indices`` (default: all), in the order of
+        ``indices``, run where the sub-envs live: with workers ``fn`` must pickle (a
+        module-level function, a ``functools.partial`` of one, an ``operator.methodcaller``)
+        and its results come back as copies. What ``call``, ``get_attr`` and ``render`` use,
+        and what a wrapper such as Stable-Baselines3's ``VecEnv`` (``indices``) needs.
+
+        Raises:
+            ValueError: an index that is not an integer in [0, ``num_envs``).
+        """
+        if indices is None:
+            indices = range(self.num_envs)
+        indices = [check_int("indices", i, 0, self.num_envs - 1) for i in indices]
+        mask = np.zeros(self.num_envs, dtype=bool)
+        mask[indices] = True
+        results = self._each("apply", fn, rows=(mask,))
+        return tuple(results[i] for i in indices)
 
     def set_attr(self, name: str, values: Any) -> None:
         """Set ``name`` on every sub-env: one value each from a list or tuple of
