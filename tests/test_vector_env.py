@@ -337,6 +337,19 @@ def test_a_workers_errors_name_the_sub_env_and_its_death_is_an_error():
     envs.close()
 
 
+@pytest.mark.skipif(not hasattr(os, "sched_getaffinity"), reason="no CPU affinity here")
+def test_workers_are_pinned_only_where_they_take_every_cpu():
+    cpus = sorted(os.sched_getaffinity(0))
+    n = min(len(cpus), 4)
+    if n < 2:
+        pytest.skip("pinning needs 2 CPUs or more")
+    envs = _make_vec(ENV_IDS[0], n, workers=n)
+    workers = sorted(_worker_processes(), key=lambda p: p.name)  # "... worker k", k < 4
+    pinned = {os.sched_getaffinity(p.pid) == {cpus[k]} for k, p in enumerate(workers)}
+    envs.close()
+    assert pinned == {n == len(cpus)}  # pinned one per CPU, or (more CPUs) none pinned
+
+
 def test_closing_stops_the_workers_and_so_does_garbage_collection():
     envs = _make_vec(ENV_IDS[0], 4, workers=2)
     assert len(_worker_processes()) == 2

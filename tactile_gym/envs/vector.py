@@ -565,11 +565,16 @@ class HingeProbeVectorEnv(VectorEnv):
         context = _context()
         sizes = [len(b) for b in np.array_split(np.arange(self.num_envs), self.workers)]
         firsts = np.cumsum([0, *sizes[:-1]]).tolist()
-        # Worker k on the k-th of the CPUs this process may use, where the OS can pin.
+        # Worker k on the k-th of the CPUs this process may use, where the OS can pin and the
+        # workers take all of those CPUs. With fewer workers than CPUs nothing is pinned:
+        # other processes making workers (the jobs of a sweep) would pin theirs to the same
+        # first CPUs and leave the rest idle.
         cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_setaffinity") else []
+        if len(cpus) != self.workers:
+            cpus = []
         try:
             for k, (first, size) in enumerate(zip(firsts, sizes)):
-                cpu = cpus[k % len(cpus)] if cpus else None
+                cpu = cpus[k] if cpus else None
                 self._workers.append(
                     _Worker(
                         context,
