@@ -105,12 +105,11 @@ def choose_env_workers(env_id: str, n_envs: int, n_cpus: int) -> int:
     """How many processes step the vector env's sub-envs (``workers``, ``docs/design.md``
     7.9): 1 is this process, beside the learner.
 
-    A primitive id's step is a whole primitive, about 10 ms of env work against well under
-    1 ms per round trip to the workers: one worker per env up to the cores, the learner
-    sharing them (it takes about 7 % of a core). On 2 cores PPO with 2 envs trained 1.3x as
-    fast with 2 workers as in-process (``benchmarks/bench_train.py``). A 6-D id's step is
-    about 0.5 ms, the cost of a round trip: workers only when each gets a core of its own
-    beside the learner, else in-process (2 subprocesses on 2 cores trained at 0.6x).
+    A primitive id's step is a whole primitive, many control steps of env work for one round
+    trip to a worker: one worker per env up to the cores, the learner (a small share of a
+    core) sharing them. A 6-D id's step is one control step, about what a round trip costs:
+    workers only when each gets a core of its own beside the learner, else in-process. The
+    README ("Speed", ``benchmarks/bench_train.py``) has the measurements.
 
     Args:
         env_id: the id trained.
