@@ -13,11 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
+from tactile_gym import PRIMITIVE_ENV_IDS
+
 
 def step_unit(env_id: str) -> str:
     """What one env step of ``env_id`` is, for axis labels: a primitive (the primitive ids)
     or a control step of 0.05 s (the 6-D ids)."""
-    return "primitives" if "Primitive" in env_id else "control steps (0.05 s each)"
+    return "primitives" if env_id in PRIMITIVE_ENV_IDS else "control steps (0.05 s each)"
 
 
 def plot_errors(records: dict[str, list], path: Path, env_id: str, threshold: float) -> None:

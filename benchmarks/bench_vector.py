@@ -38,6 +38,7 @@ from gymnasium.vector import AutoresetMode  # noqa: E402
 
 from agents.scripted import scripted_policy  # noqa: E402
 from benchmarks.bench_env import BARE_REPEATS, bare_physics_per_control_step  # noqa: E402
+from tactile_gym import PRIMITIVE_ENV_IDS  # noqa: E402
 from tactile_gym.sim import ObjectConfig  # noqa: E402
 from tactile_gym.sim.objects import HingedObject  # noqa: E402
 from tactile_gym.sim.world import SUBSTEPS, World  # noqa: E402
@@ -122,7 +123,7 @@ def time_vector(
         autoreset_mode=AutoresetMode.SAME_STEP,
         workers=workers,
     )
-    primitive = envs.single_action_space.shape == (3,)
+    primitive = env_id in PRIMITIVE_ENV_IDS
     policies = [scripted_policy(reference) for _ in range(n)]
     for pol in policies:
         pol.reset()
@@ -183,7 +184,7 @@ def layout_table(sizes: list[int]) -> str:
 def vector_table(
     env_id: str, sizes: list[int], worker_counts: list[int], control_steps: int
 ) -> str:
-    primitive = "Primitive" in env_id
+    primitive = env_id in PRIMITIVE_ENV_IDS
     step = "primitives" if primitive else "sub-env steps"
     lines = [
         f"`{env_id}`, about {control_steps} sub-env control steps per row; wall time",

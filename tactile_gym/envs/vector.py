@@ -271,7 +271,7 @@ def _serve(conn, env_fn, kwargs, first, size, num_envs, autoreset_mode, cpu) -> 
     block's methods the vector env asks for until it says ``"close"`` or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the vector env's to handle
     if cpu is not None:
-        # Unpinned workers stepped up to 1.6x slower on 2 cores (docs/design.md 7.9).
+        # Pinned workers stepped faster on 2 cores (docs/design.md 7.9).
         os.sched_setaffinity(0, {cpu})
     try:
         block = _Block(env_fn, kwargs, first, size, num_envs, autoreset_mode)
@@ -440,7 +440,7 @@ class HingeProbeVectorEnv(VectorEnv):
         if self._local is None:
             raise RuntimeError(
                 f"with workers={self.workers} the sub-envs live in worker processes;"
-                " reach them with call, get_attr or set_attr"
+                " reach them with apply, call, get_attr or set_attr"
             )
         return self._local.envs
 
