@@ -38,7 +38,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-from tactile_gym.envs.hinge_probe_primitive_v1 import PRIMITIVE_KEYWORDS
+from tactile_gym.envs.hinge_probe_primitive import PRIMITIVE_KEYWORDS
 from tactile_gym.envs.skills import PrimitiveExecutor
 
 from .cli import (

@@ -33,11 +33,11 @@ _3D = {"families": ("scissors", "door", "tilted"), "estimator": "3d"}
 _V1 = {"sensor_model": "ideal", "tare_action": False, "gate": {"preload_rule": False}}
 
 _SIX_D = (
-    "tactile_gym.envs.hinge_probe_v1:HingeProbeEnv",
+    "tactile_gym.envs.hinge_probe:HingeProbeEnv",
     "tactile_gym.envs.vector:make_vector_env",
 )
 _PRIMITIVE = (
-    "tactile_gym.envs.hinge_probe_primitive_v1:make_primitive_env",
+    "tactile_gym.envs.hinge_probe_primitive:make_primitive_env",
     "tactile_gym.envs.vector:make_primitive_vector_env",
 )
 #: Each task: its name, its entry points (single env, vector env) and its keywords.

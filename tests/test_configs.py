@@ -34,8 +34,8 @@ from hypothesis import strategies as st
 import tactile_gym
 from tactile_gym import ENV_IDS
 from tactile_gym.envs.gate import GateConfig
-from tactile_gym.envs.hinge_probe_primitive_v1 import HingeProbePrimitiveEnv
-from tactile_gym.envs.hinge_probe_v1 import HingeProbeConfig
+from tactile_gym.envs.hinge_probe import HingeProbeConfig
+from tactile_gym.envs.hinge_probe_primitive import HingeProbePrimitiveEnv
 from tactile_gym.envs.scenarios import ScenarioConfig
 from tactile_gym.envs.skills import PrimitiveScales
 from tactile_gym.envs.task import TaskConfig

@@ -13,7 +13,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import tactile_gym
 from tactile_gym import ENV_IDS
-from tactile_gym.envs.hinge_probe_primitive_v1 import HingeProbePrimitiveEnv
+from tactile_gym.envs.hinge_probe_primitive import HingeProbePrimitiveEnv
 from tactile_gym.envs.observation import OBSERVATION_LAYOUT
 from tactile_gym.envs.task import REWARD_TERMS
 

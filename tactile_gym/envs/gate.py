@@ -50,9 +50,9 @@ import numpy as np
 
 from tactile_gym.estimation import AxisEstimate
 from tactile_gym.sensing import TOUCH_FORCE, Touch, TouchSensor, indentation_depth
-from tactile_gym.sensing.vec3 import norm
 from tactile_gym.spatial import matrix_to_rotvec
 from tactile_gym.validation import check_bool, check_int, check_number, check_range
+from tactile_gym.vec3 import norm
 
 __all__ = [
     "GateConfig",

@@ -24,8 +24,8 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
-from tactile_gym.sensing.vec3 import norm
 from tactile_gym.validation import check_choice
+from tactile_gym.vec3 import norm
 
 __all__ = [
     "NO_EDGE",

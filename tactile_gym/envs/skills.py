@@ -43,8 +43,8 @@ from tactile_gym.envs.observation import (
     WrenchObs,
 )
 from tactile_gym.sensing import RELEASE_FORCE, PressConfig, PressController
-from tactile_gym.sensing.vec3 import cross, norm
 from tactile_gym.spatial import quaternion_to_matrix
+from tactile_gym.vec3 import cross, norm
 
 __all__ = [
     "ACTION_SIZE",

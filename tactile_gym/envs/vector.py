@@ -41,8 +41,8 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
-from tactile_gym.envs.hinge_probe_primitive_v1 import make_primitive_env
-from tactile_gym.envs.hinge_probe_v1 import HingeProbeEnv
+from tactile_gym.envs.hinge_probe import HingeProbeEnv
+from tactile_gym.envs.hinge_probe_primitive import make_primitive_env
 from tactile_gym.validation import check_int
 
 __all__ = [

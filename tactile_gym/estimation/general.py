@@ -39,8 +39,6 @@ from tactile_gym.estimation.problem import (
     axis_jacobian,
     basis,
     covariance_local,
-    cross,
-    cross3,
     inverse_cholesky,
 )
 from tactile_gym.estimation.robust import (
@@ -49,6 +47,7 @@ from tactile_gym.estimation.robust import (
     sign_flips,
     split_loss_cost,
 )
+from tactile_gym.vec3 import cross_array, cross_rows
 
 __all__ = [
     "finish_general",
@@ -80,10 +79,10 @@ def _whitening_general(prob: Problem, u: np.ndarray, p: np.ndarray) -> np.ndarra
         return out * prob.sqrt_w[:, None]
     noise = prob.noise
     wv = prob.x - p
-    nrm = cross(prob.e, u[None, :])
+    nrm = cross_rows(prob.e, u[None, :])
     # r1 = e . (u x (x - p)) and r2 = e . u: their gradients in e are g and u, and
     # noise.cov holds only the edge's normal directions.
-    g = cross(np.broadcast_to(u, wv.shape), wv)
+    g = cross_rows(np.broadcast_to(u, wv.shape), wv)
     cu = noise.cov @ u
     sx2 = noise.sx**2
     s11 = sx2 * np.einsum("ij,ij->i", nrm, nrm) + np.einsum("ij,ijk,ik->i", g, noise.cov, g)
@@ -116,7 +115,7 @@ def linear_init(prob: Problem, wh: np.ndarray):
     Returns None when the system does not determine the axis.
     """
     x, e, n, length = prob.x, prob.e, prob.n, prob.length
-    m = cross(x, e) / length
+    m = cross_rows(x, e) / length
     a1 = np.zeros((n, 8))  # r1 / L rows: m_i / L . u + e_i . m_a / L - k / L
     a1[:, 0:3] = m
     a1[:, 3:6] = e
@@ -142,11 +141,11 @@ def linear_init(prob: Problem, wh: np.ndarray):
     u = z[0:3] / scale
     m_a = z[3:6] * length / scale
     m_a = m_a - (u @ m_a) * u
-    p = cross3(u, m_a)
+    p = cross_array(u, m_a)
     # Medians keep wild edges from dragging (k, c) when a robust loss follows.
     centre = np.mean if prob.loss == "linear" else np.median
     c = float(centre(e @ u))
-    k = float(centre(np.einsum("ij,ij->i", x - p, cross(e, u[None, :]))))
+    k = float(centre(np.einsum("ij,ij->i", x - p, cross_rows(e, u[None, :]))))
     return u, p, k, c
 
 
@@ -165,13 +164,13 @@ def linearise(prob, wh, u, p, k, c, jacobian=True):
     b1, b2 = basis(u)
     q = np.zeros((6, 6))
     q[0:3, 0] = u
-    q[3:6, 0] = cross3(p, u)
+    q[3:6, 0] = cross_array(p, u)
     q[3:6, 5] = u
     if jacobian:
         q[0:3, 1] = b1
-        q[3:6, 1] = cross3(p, b1)
+        q[3:6, 1] = cross_array(p, b1)
         q[0:3, 2] = b2
-        q[3:6, 2] = cross3(p, b2)
+        q[3:6, 2] = cross_array(p, b2)
         q[3:6, 3] = -b2
         q[3:6, 4] = b1
     a = prob.xe @ q
@@ -355,7 +354,7 @@ def finish_general(prob, u, p, k, c, wh) -> AxisEstimate:
     sin_t = math.sqrt(1.0 - c * c)
     d = abs(k) / sin_t
     # Geometric distance residual: (r1 - k) / sin(theta).
-    r1 = np.einsum("ij,ij->i", prob.x - p, cross(prob.e, u[None, :])) - k
+    r1 = np.einsum("ij,ij->i", prob.x - p, cross_rows(prob.e, u[None, :])) - k
     rms = float(np.sqrt(np.mean(r1 * r1))) / sin_t
     # Jacobian of (point, direction, distance) w.r.t. (alpha, beta, s1, s2, k, c).
     q = p + prob.centre
@@ -367,7 +366,7 @@ def finish_general(prob, u, p, k, c, wh) -> AxisEstimate:
 
 def invariants(x, e, u, p) -> tuple[float, float]:
     """Median reciprocal product k and angle cosine c of the edges (given orientation)."""
-    k = float(np.median(np.einsum("ij,ij->i", x - p, cross(e, u[None, :]))))
+    k = float(np.median(np.einsum("ij,ij->i", x - p, cross_rows(e, u[None, :]))))
     return k, float(np.median(e @ u))
 
 
@@ -396,7 +395,7 @@ def sign_residuals(prob: Problem, u, p, k, c, wh=None):
         wh = (
             _whitening_general(prob, u, p) if prob.noise is not None else whitening_scale_only(prob)
         )
-    d = np.einsum("ij,ij->i", prob.x - p, cross(prob.e, u[None, :]))
+    d = np.einsum("ij,ij->i", prob.x - p, cross_rows(prob.e, u[None, :]))
     a = prob.e @ u
     out = []
     for sgn in (1.0, -1.0):

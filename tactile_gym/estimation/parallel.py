@@ -28,7 +28,6 @@ from tactile_gym.estimation.problem import (
     axis_jacobian,
     basis,
     covariance_local,
-    cross,
     inverse_cholesky,
 )
 from tactile_gym.estimation.robust import (
@@ -36,6 +35,7 @@ from tactile_gym.estimation.robust import (
     split_loss,
     split_loss_cost,
 )
+from tactile_gym.vec3 import cross_rows
 
 __all__ = ["fit_parallel", "residuals_parallel"]
 
@@ -78,7 +78,7 @@ def residuals_parallel(prob, u0, b1, b2):
         wv = x - p
         wp = wv - (wv @ u)[:, None] * u
         rho = np.sqrt(np.einsum("ij,ij->i", wp, wp))
-        exu = cross(e, u[None, :])
+        exu = cross_rows(e, u[None, :])
         out = np.empty(3 * n + extra)
         m1 = exu @ b1
         out[:n] = wh[:, 0] * (rho - t[4])
@@ -102,8 +102,8 @@ def residuals_parallel(prob, u0, b1, b2):
         out[:n, 3] = -(unit @ b2)
         out[:n, 4] = -1.0
         # d/du of (e x u) . b = u . (b x e)
-        j1 = cross(np.broadcast_to(b1, e.shape), e) @ ju
-        j2 = cross(np.broadcast_to(b2, e.shape), e) @ ju
+        j1 = cross_rows(np.broadcast_to(b1, e.shape), e) @ ju
+        j2 = cross_rows(np.broadcast_to(b2, e.shape), e) @ ju
         out[:n] *= wh[:, 0:1]
         out[n : 2 * n, 0:2] = wh[:, 1:2] * j1
         out[2 * n : 3 * n, 0:2] = wh[:, 2:3] * j1 + wh[:, 3:4] * j2

@@ -31,6 +31,7 @@ from tactile_gym.estimation.axis import (
 from tactile_gym.estimation.robust import (
     robust_weights,
 )
+from tactile_gym.vec3 import cross_array, cross_rows
 
 __all__ = [
     "VAR_FLOOR",
@@ -38,8 +39,6 @@ __all__ = [
     "axis_jacobian",
     "basis",
     "covariance_local",
-    "cross",
-    "cross3",
     "inverse_cholesky",
     "Noise",
     "Problem",
@@ -169,7 +168,7 @@ class Problem:
 def _design(x: np.ndarray, e: np.ndarray) -> np.ndarray:
     """(N, 6) rows ``(x_i x e_i, e_i)``: ``r1_i = row_i . (u, m_a) - k`` (Pluecker form)."""
     out = np.empty((x.shape[0], 6))
-    out[:, 0:3] = cross(x, e)
+    out[:, 0:3] = cross_rows(x, e)
     out[:, 3:6] = e
     return out
 
@@ -179,23 +178,7 @@ def basis(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     a = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     b1 = a - (a @ u) * u
     b1 /= np.linalg.norm(b1)
-    return b1, cross3(u, b1)
-
-
-def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product of two 3-vectors (np.cross has a large fixed cost)."""
-    a0, a1, a2 = a.tolist()
-    b0, b1, b2 = b.tolist()
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of (N, 3) arrays (np.cross has a large fixed cost)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
+    return b1, cross_array(u, b1)
 
 
 def inverse_cholesky(s11: np.ndarray, s12: np.ndarray, s22: np.ndarray) -> np.ndarray:

@@ -39,8 +39,8 @@ from tactile_gym.sensing.edge import EDGE_STD_UNOBSERVABLE, edge_from_force, nan
 from tactile_gym.sensing.geometry import FingertipGeometry
 from tactile_gym.sensing.indentation import CONTACT_SHAPES, indentation_correction
 from tactile_gym.sensing.sensor import TOUCH_FORCE, SensorConfig
-from tactile_gym.sensing.vec3 import dot
 from tactile_gym.validation import check_number
+from tactile_gym.vec3 import dot
 
 __all__ = ["ContactEstimate", "estimate_contact"]
 

@@ -10,14 +10,14 @@ curvature. ``estimate_contact`` (``tactile_gym.sensing.contact``) strings them t
 Conventions (``docs/design.md`` 2): SI units; every point, direction, force and moment in the
 sensor frame (origin at the F/T sensor, z along the finger axis, hemisphere centre at
 (0, 0, L)); f is the force on the fingertip, m its moment about the sensor origin. Vectors are
-tuples of floats (``tactile_gym.sensing.vec3``). NumPy only.
+tuples of floats (``tactile_gym.vec3``). NumPy only.
 """
 
 from __future__ import annotations
 
 import math
 
-from tactile_gym.sensing.vec3 import cross, dot
+from tactile_gym.vec3 import cross, dot
 
 __all__ = ["CONTACT_MODELS", "contact_point", "friction_moment", "line_offset"]
 

@@ -6,7 +6,7 @@ tilt stands out of that noise at all (observability, ``docs/design.md`` 5) come 
 line through the contact points of a slide gives another estimate (``docs/design.md`` 4.3).
 
 Conventions (``docs/design.md`` 2): SI units, radians; vectors in the sensor frame, as tuples of
-floats on the per-reading path (``tactile_gym.sensing.vec3``). NumPy only.
+floats on the per-reading path (``tactile_gym.vec3``). NumPy only.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ import math
 
 import numpy as np
 
-from tactile_gym.sensing.vec3 import cross, dot
 from tactile_gym.spatial import orient_like
 from tactile_gym.validation import check_number
+from tactile_gym.vec3 import cross, dot
 
 __all__ = ["EDGE_STD_UNOBSERVABLE", "edge_from_force", "edge_from_trace"]
 

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from tactile_gym.sensing.vec3 import dot
+from tactile_gym.vec3 import dot
 
 __all__ = ["CONTACT_SHAPES", "indentation_correction", "indentation_depth"]
 

@@ -38,8 +38,8 @@ import numpy as np
 from tactile_gym.sensing.contact import estimate_contact
 from tactile_gym.sensing.geometry import FingertipGeometry
 from tactile_gym.sensing.sensor import TOUCH_FORCE, SensorConfig
-from tactile_gym.sensing.vec3 import cross, dot
 from tactile_gym.validation import check_int, check_number
+from tactile_gym.vec3 import cross, dot
 
 __all__ = [
     "PRESS_PHASES",

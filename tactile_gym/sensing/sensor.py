@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.sensing.geometry import FingertipGeometry
-from tactile_gym.sensing.vec3 import cross
 from tactile_gym.validation import check_int, check_number, check_vector
+from tactile_gym.vec3 import cross
 
 __all__ = [
     "ALUMINIUM_DENSITY",

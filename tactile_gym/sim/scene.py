@@ -32,7 +32,6 @@ import numpy as np
 import pybullet as p
 
 from tactile_gym.sensing import FingertipGeometry, SensorConfig, SensorErrors
-from tactile_gym.sensing.vec3 import norm
 from tactile_gym.sim import _pose_kernels
 from tactile_gym.sim.camera import Camera, frame_box
 from tactile_gym.sim.config import ObjectConfig, SkinConfig
@@ -46,6 +45,7 @@ from tactile_gym.spatial import (
     quaternion_to_matrix,
     rotvec_to_matrix,
 )
+from tactile_gym.vec3 import norm
 
 __all__ = ["FORCE_LIMIT", "ProbeScene", "StepInfo"]
 
