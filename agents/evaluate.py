@@ -136,7 +136,7 @@ class PrimitiveModelPolicy:
         primitive_env = gym.make(run["env_id"], **run["env_kwargs"])
         self.inner = ModelPolicy(path, primitive_env)
         self.space = primitive_env.get_wrapper_attr("dict_observation_space")
-        self.flat = primitive_env.unwrapped.config.observation_mode == "flat"
+        self.flat = primitive_env.unwrapped.control_env.config.observation_mode == "flat"
         primitive_env.close()
         self.executor = PrimitiveExecutor.for_env(env.unwrapped)
 

@@ -52,8 +52,8 @@ def make_sb3_vec_env(
 
 
 def unbatch_infos(infos: dict[str, Any], num_envs: int) -> list[dict[str, Any]]:
-    """Gymnasium's batched infos (arrays with ``_key`` masks) as one dict per sub-env, with
-    NumPy scalars as Python numbers, as a single env gives them."""
+    """Gymnasium's batched infos (arrays with ``_key`` masks) as one dict per sub-env, each
+    entry as a single env gives it (the envs' infos are NumPy scalars and arrays)."""
     out: list[dict[str, Any]] = [{} for _ in range(num_envs)]
     for key, value in infos.items():
         if key.startswith("_"):
@@ -61,8 +61,7 @@ def unbatch_infos(infos: dict[str, Any], num_envs: int) -> list[dict[str, Any]]:
         mask = infos[f"_{key}"]
         rows = unbatch_infos(value, num_envs) if isinstance(value, dict) else value
         for i in np.flatnonzero(mask):
-            item = rows[i]
-            out[i][key] = item.item() if isinstance(item, np.generic) else item
+            out[i][key] = rows[i]
     return out
 
 

@@ -1,6 +1,6 @@
 """Regime map, the analysis: the gate's rules applied to the probes' readings.
 
-The rules are the env's own (``tactile_gym.envs.gate``: ``friction_free``, ``drag_bias``,
+The rules are the env's own (``tactile_gym.perception.gate``: ``friction_free``, ``drag_bias``,
 ``bias_within_budget``, ``link_held`` over a ``GateConfig``), so the map tests the gate it
 supports rather than a restatement of it (``docs/design.md`` 4.2, 7.2). Angles in rad.
 """
@@ -13,7 +13,7 @@ from dataclasses import replace
 import numpy as np
 from regime_experiment import Readings
 
-from tactile_gym.envs.gate import GateConfig, bias_within_budget, drag_bias, friction_free
+from tactile_gym.perception.gate import GateConfig, bias_within_budget, drag_bias, friction_free
 
 #: The env's gate, whose rules the map checks.
 GATE = GateConfig()

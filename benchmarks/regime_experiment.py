@@ -15,12 +15,12 @@ Observables, world frame (the robot's base frame), from one reading:
   unit(touch - now), the press path reversed (it points out of the object, like the force on
   the skin);
 * ``deviation``: the angle between the path and the force line (the gate's friction share,
-  ``tactile_gym.envs.gate.friction_free``);
+  ``tactile_gym.perception.gate.friction_free``);
 * ``drag`` = asin(|path . e|): the angle between path and force line along the measured edge
-  e (``tactile_gym.envs.gate.drag_bias``);
+  e (``tactile_gym.perception.gate.drag_bias``);
 * ``tilt``: the angle between the force and the skin normal at the contact point;
 * ``travel``: the fingertip's travel since the touch along the force line, against what a
-  flat-face press needs for the same force (``tactile_gym.envs.gate.link_held``).
+  flat-face press needs for the same force (``tactile_gym.perception.gate.link_held``).
 
 Run through ``benchmarks/regime_map.py``.
 """
@@ -32,7 +32,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from tactile_gym.envs.gate import flat_press_depth
+from tactile_gym.perception.gate import flat_press_depth
 from tactile_gym.sensing import (
     PressConfig,
     PressController,

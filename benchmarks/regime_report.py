@@ -30,7 +30,7 @@ from regime_experiment import (
     Readings,
 )
 
-from tactile_gym.envs.gate import drag_bias, friction_free
+from tactile_gym.perception.gate import drag_bias, friction_free
 
 
 def deg(x: float, digits: int = 1) -> str:

@@ -106,6 +106,24 @@ def check_vector(
     return out
 
 
+class UnknownKeywordError(TypeError, ValueError):
+    """An unknown keyword of a constructor, in Python's own wording ("got an unexpected keyword
+    argument 'x'"): a ``TypeError``, as a function's own would be, so that tools which drop
+    keywords an env does not take (TorchRL's ``GymEnv`` passes ``frameskip``) can tell; and a
+    ``ValueError``, as every other configuration error here is."""
+
+
+def check_keywords(owner: str, given: Any, allowed: list[str]) -> None:
+    """Raise :class:`UnknownKeywordError` naming the first unknown keyword of ``given`` (all of
+    them, and the allowed ones, follow)."""
+    unknown = sorted(set(given) - set(allowed), key=str)
+    if unknown:
+        raise UnknownKeywordError(
+            f"{owner}() got an unexpected keyword argument {unknown[0]!r}"
+            f" (unknown: {unknown}; allowed: {allowed})"
+        )
+
+
 def build_config(cls: type, values: Any, name: str):
     """``cls(**values)`` for a dataclass, where ``values`` must be a mapping of its fields.
 

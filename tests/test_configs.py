@@ -33,13 +33,13 @@ from hypothesis import strategies as st
 
 import tactile_gym
 from tactile_gym import ENV_IDS
-from tactile_gym.envs.gate import GateConfig
 from tactile_gym.envs.hinge_probe import HingeProbeConfig
 from tactile_gym.envs.hinge_probe_primitive import HingeProbePrimitiveEnv
 from tactile_gym.envs.scenarios import ScenarioConfig
 from tactile_gym.envs.skills import PrimitiveScales
 from tactile_gym.envs.task import TaskConfig
 from tactile_gym.estimation import LOSSES
+from tactile_gym.perception.gate import GateConfig
 from tactile_gym.presets import load_preset, preset_names
 from tactile_gym.sensing import FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, SkinConfig

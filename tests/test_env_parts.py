@@ -24,6 +24,7 @@ from tactile_gym.envs.observation import (
 from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, probed_edge, sample_scenario
 from tactile_gym.envs.step_guard import StepGuard
 from tactile_gym.estimation import AxisPrior
+from tactile_gym.perception import Sample
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.spatial import quaternion_to_matrix
 
@@ -96,10 +97,16 @@ def test_pipeline_turns_a_held_press_into_one_measurement():
     assert pipeline.directions == 1 and pipeline.span == 0.0
     np.testing.assert_array_equal(LastMeasurementObs.read(obs).edge, np.float32(pipeline.last.edge))
     scene = u.scene
-    for _ in range(10):
-        added = pipeline.step(scene.read_wrench(u.np_random), scene.fingertip_rotation,
-                              scene.fingertip_position)  # fmt: skip
-        assert added == 0
+    time = pipeline.tare_time + u._steps * u.period
+    for k in range(1, 11):
+        sample = Sample(
+            time + k * u.period,
+            scene.read_wrench(u.np_random),
+            scene.fingertip_position,
+            scene.fingertip_rotation,
+        )
+        perceived = pipeline.step(sample)
+        assert perceived.accepted == () and perceived.fault == ""
     env.close()
 
 

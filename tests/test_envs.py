@@ -13,8 +13,10 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import tactile_gym
 from tactile_gym import ENV_IDS
+from tactile_gym.envs.hinge_probe import HingeProbeEnv
 from tactile_gym.envs.hinge_probe_primitive import HingeProbePrimitiveEnv
 from tactile_gym.envs.observation import OBSERVATION_LAYOUT
+from tactile_gym.envs.skills import PRIMITIVE_KIND
 from tactile_gym.envs.task import REWARD_TERMS
 
 N_STEPS = 15
@@ -48,7 +50,7 @@ def test_gymnasium_check_env(env_id, monkeypatch):
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     # The env as its entry point makes it, without gym.make's checking wrappers; for the
-    # primitive ids that is their wrapper over the 6-D env.
+    # primitive ids that is the primitive env driving its 6-D env.
     spec = gym.spec(env_id)
     env = load_env_creator(spec.entry_point)(**spec.kwargs)
     env.unwrapped.spec = spec  # what gym.make sets; the check re-makes the env from it
@@ -60,24 +62,30 @@ def test_gymnasium_check_env(env_id, monkeypatch):
 
 
 @pytest.mark.parametrize("env_id", [i for i in ENV_IDS if "Primitive" in i])
-def test_primitive_ids_wrap_the_6d_env(env_id):
+def test_primitive_ids_are_an_env_driving_the_6d_env(env_id):
     env = gym.make(env_id, max_primitives=3, probe_along=0.005)
-    wrapper = env.env.env  # under gym.make's OrderEnforcing and PassiveEnvChecker
-    assert isinstance(wrapper, HingeProbePrimitiveEnv) and isinstance(wrapper, gym.Wrapper)
-    assert wrapper.max_primitives == 3 and wrapper.scales.probe_along == 0.005
-    assert env.unwrapped is wrapper.env
-    # The 6-D env underneath, with its tare component (v2).
-    assert env.unwrapped.action_space.shape == (7,)
-    assert env.get_wrapper_attr("dict_observation_space") is wrapper.dict_observation_space
-    obs, _ = env.reset(seed=0)
+    primitive = env.unwrapped
+    # The env a user acts on is the unwrapped one (tools check and introspect it); the 6-D
+    # env it drives, with its tare component (v2), is its control_env.
+    assert isinstance(primitive, HingeProbePrimitiveEnv) and not isinstance(primitive, gym.Wrapper)
+    assert primitive.action_space == env.action_space
+    assert primitive.observation_space == env.observation_space
+    assert primitive.max_primitives == 3 and primitive.scales.probe_along == 0.005
+    assert isinstance(primitive.control_env, HingeProbeEnv)
+    assert primitive.control_env.action_space.shape == (7,)
+    assert env.spec.max_episode_steps == 3
+    assert env.get_wrapper_attr("dict_observation_space") is primitive.dict_observation_space
+    obs, info = env.reset(seed=0)
+    assert info["primitive_kind"] == 0 and info["steps"] == 0
     for _ in range(3):
         obs, _, terminated, truncated, info = env.step(np.array([-1.0, 0.0, 0.0], np.float32))
     assert truncated and not terminated  # after max_primitives
-    assert info["steps"] >= 1
-    # The README's accessor: the 6-D env's measurements, with their points and edges.
-    for m in env.unwrapped.measurements:
+    assert info["steps"] >= 1 and info["primitive_kind"] == PRIMITIVE_KIND["probe"]
+    # The README's accessor: the episode's measurements, with their points and edges.
+    assert primitive.measurements is primitive.control_env.measurements
+    for m in primitive.measurements:
         assert m.point.shape == (3,) and m.edge.shape == (3,)
-    assert info["n_measurements"] == len(env.unwrapped.measurements)
+    assert info["n_measurements"] == len(primitive.measurements)
     env.close()
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import tactile_gym  # noqa: F401 - registers the envs
-from tactile_gym.envs.gate import (
+from tactile_gym.perception.gate import (
     GateConfig,
     patch_displacement,
     tangential_travel,

@@ -4,8 +4,8 @@ Each policy acts on the 6-D fingertip actions (the primitive ids run the same ga
 primitives, and are attacked with random primitives). The truth is read only here, after the
 episodes: every accepted measurement is compared with the nearest long edge of the links'
 top faces (all lie at the one distance from the axis that the fit assumes, so each is a valid
-measurement: ``tactile_gym/sensing/probing.py``, ``tactile_gym/envs/gate.py``). Required (issue
-"HingeProbe-v1"): P95 edge error <= 5 deg and P95 distance from the edge line <= 3 mm.
+measurement: ``tactile_gym/sensing/probing.py``, ``tactile_gym/perception/gate.py``). Required
+(issue "HingeProbe-v1"): P95 edge error <= 5 deg and P95 distance from the edge line <= 3 mm.
 
 The hold-still adversaries (issue 17: a shear, a rock of the finger, a drag or an oblique
 approach, then perfectly still, among plain presses at random places on both links) attack

@@ -6,9 +6,9 @@ is wrapped here; each read records the call stack, and a read fails the test whe
 
 * the function that made it is not named as truth code (``true_...``, ``_true_...``,
   ``..._error``, ``turn_by_hand``), or
-* any function on the stack belongs to the measurement path: the sensing and estimation
-  packages, the env's touch sensing, gate, measurement pipeline, observation codec and
-  skills, or a policy.
+* any function on the stack belongs to the measurement path: the sensing, estimation and
+  perception packages (touch sensing, tare, gate, measurement pipeline), the log replay, the
+  env's observation codec and skills, or a policy.
 
 Episodes of every id with the scripted, random and primitive policies run under the audit,
 and so does a reduced Table I reproduction.
@@ -44,8 +44,8 @@ ROOT = Path(tactile_gym.__file__).resolve().parents[1]
 FORBIDDEN = (
     "tactile_gym/sensing/",
     "tactile_gym/estimation/",
-    "tactile_gym/envs/gate.py",
-    "tactile_gym/envs/measurement.py",
+    "tactile_gym/perception/",
+    "tactile_gym/replay.py",
     "tactile_gym/envs/observation.py",
     "tactile_gym/envs/skills.py",
     "agents/scripted.py",

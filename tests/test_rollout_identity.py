@@ -3,9 +3,10 @@
 ``tests/data/rollouts.npz`` holds, for every v2 and v1 id (``ENV_IDS``, ``LEGACY_ENV_IDS``)
 and two seeds, the scripted policy's and a random policy's episodes (observations, rewards,
 terminations and the errors in ``info``): the v1 ids' recorded on main before the probing
-stack was restructured, the v2 ids' before the perception layer moved out of the env. A change that moves them on purpose re-records them
-(``PYTHONPATH=. python tests/test_rollout_identity.py``) and names the change in its commit and
-in the ids' Version History.
+stack was restructured, the v2 ids' before the perception layer moved out of the env. A
+change that moves them on purpose re-records them (``PYTHONPATH=. python
+tests/test_rollout_identity.py``) and names the change in its commit and in the ids' Version
+History.
 """
 
 from __future__ import annotations

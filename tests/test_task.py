@@ -14,6 +14,11 @@ from tactile_gym.envs.task import (
 )
 
 
+def reward_of(task: AxisEstimationTask, step: StepFacts) -> tuple[float, dict[str, float]]:
+    """The step's reward as the env takes it: termination judged once, then the reward."""
+    return task.get_reward(step, any(task.get_termination(step).values()))
+
+
 def facts(**kw) -> StepFacts:
     base = dict(
         position_error=0.01,
@@ -33,7 +38,7 @@ def test_return_telescopes_from_the_prior_error():
     task.initialize_episode(0.008, np.deg2rad(1.0))
     e0 = 0.008 + 0.05 * np.deg2rad(1.0)
     errors = [(0.02, 0.3), (np.inf, np.pi / 2), (0.004, 0.01), (0.001, 0.002)]
-    total = sum(task.get_reward(facts(position_error=p, angle_error=a))[0] for p, a in errors)
+    total = sum(reward_of(task, facts(position_error=p, angle_error=a))[0] for p, a in errors)
     final = 0.001 + 0.05 * 0.002
     assert total == pytest.approx((e0 - final) / 0.01)
 
@@ -42,14 +47,14 @@ def test_a_worse_first_estimate_costs_reward():
     """No jump: an estimate worse than the prior earns a negative reward."""
     task = AxisEstimationTask(TaskConfig())
     task.initialize_episode(0.006, 0.0)
-    reward, terms = task.get_reward(facts(position_error=0.05))
+    reward, terms = reward_of(task, facts(position_error=0.05))
     assert reward < 0 and terms["reward_error_reduction"] == pytest.approx(-4.4)
 
 
 def test_reward_is_the_sum_of_its_terms_and_penalties_bite():
     task = AxisEstimationTask(TaskConfig())
     task.initialize_episode(0.01, 0.0)
-    reward, terms = task.get_reward(facts(max_force=12.0, action=np.ones(6)))
+    reward, terms = reward_of(task, facts(max_force=12.0, action=np.ones(6)))
     assert tuple(terms) == REWARD_TERMS  # the names the primitive ids sum over a primitive
     assert reward == pytest.approx(sum(terms.values()))
     assert terms["reward_force_penalty"] == pytest.approx(-0.1 * 4.0 / 8.0)
@@ -88,16 +93,16 @@ def test_a_failing_step_pays_the_termination_penalty(reason):
     }[reason]
     task = AxisEstimationTask(TaskConfig(termination_penalty=0.5))
     task.initialize_episode(0.01, 0.0)
-    reward, terms = task.get_reward(facts(**kw))
+    reward, terms = reward_of(task, facts(**kw))
     assert terms["reward_termination"] == -0.5
     assert reward == pytest.approx(sum(terms.values()))
-    assert task.get_reward(facts())[1]["reward_termination"] == 0.0
+    assert reward_of(task, facts())[1]["reward_termination"] == 0.0
 
 
 def test_the_termination_penalty_is_off_by_default_and_validated():
     task = AxisEstimationTask(TaskConfig())
     task.initialize_episode(0.01, 0.0)
-    assert task.get_reward(facts(shell_contact=True))[1]["reward_termination"] == 0.0
+    assert reward_of(task, facts(shell_contact=True))[1]["reward_termination"] == 0.0
     with pytest.raises(ValueError, match="termination_penalty"):
         TaskConfig(termination_penalty=-0.1)
 
@@ -110,7 +115,7 @@ def test_prior_error_scores_the_prior_by_a_fixed_error():
     for prior_error in (None, 0.01):
         task = AxisEstimationTask(TaskConfig(prior_error=prior_error))
         task.initialize_episode(0.012, 0.0)
-        rewards = [task.get_reward(facts(position_error=p, measurements=m))[0] for p, m in errors]
+        rewards = [reward_of(task, facts(position_error=p, measurements=m))[0] for p, m in errors]
         returns[prior_error] = sum(rewards)
         if prior_error is not None:
             assert rewards[:2] == [0.0, 0.0]

@@ -1,225 +1,46 @@
-"""HingeProbe v2 and v1: estimate the joint axis of a hinged object with a soft tactile fingertip.
+"""HingeProbe: estimate the joint axis of a hinged object with a soft tactile fingertip.
 
-One class serves both versions: v2 (the realistic F/T sensor, taring) and v1 (the ideal
+One class serves every version: v2 (the realistic F/T sensor, taring) and v1 (the ideal
 sensor, no tare) differ only in ``HingeProbeConfig.sensor_model`` and ``tare_action``, which
 ``tactile_gym/__init__.py`` sets per id.
 
 ``HingeProbeEnv`` joins parts that know nothing of each other (``docs/design.md`` 7.1): the
 controller (``controller.py``), the simulation (``tactile_gym.sim.ProbeScene``), the
-measurement pipeline (``measurement.py``: touch sensing, gate and estimator), the task
-(``task.py``: reward and termination from the ground truth) and the observation codec
-(``observation.py``). Its class docstring documents the id.
+measurement pipeline (``tactile_gym.perception``: tare, touch sensing, gate and estimator), the
+task (``task.py``: reward and termination from the ground truth) and the observation codec
+(``observation.py``). Its class docstring documents the ids.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
-import os
-import sys
-from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from tactile_gym.envs.config import HingeProbeConfig
 from tactile_gym.envs.controller import DeltaPoseController
-from tactile_gym.envs.measurement import (
-    GateConfig,
-    Measurement,
-    MeasurementPipeline,
-    reset_distribution_prior,
+from tactile_gym.envs.observation import OBSERVATION, pipeline_parts
+from tactile_gym.envs.render import RenderOptions, draw_frame
+from tactile_gym.envs.step_guard import (
+    EnvSpecOwnHorizon,
+    StepGuard,
+    check_render_mode,
+    display_available,
 )
-from tactile_gym.envs.observation import (
-    NO_EDGE,
-    OBSERVATION,
-    ContactObs,
-    EstimateObs,
-    FingertipPoseObs,
-    LastMeasurementObs,
-    ProgressObs,
-    WrenchObs,
-)
-from tactile_gym.envs.render import Overlay, RenderOptions, draw_overlay
-from tactile_gym.envs.scenarios import FAMILIES, ScenarioConfig, sample_scenario
-from tactile_gym.envs.step_guard import StepGuard
-from tactile_gym.envs.task import (
-    TERMINATION_REASONS,
-    AxisEstimationTask,
-    StepFacts,
-    TaskConfig,
-)
-from tactile_gym.estimation import LOSSES, AxisEstimate, axis_error
-from tactile_gym.sensing import (
-    SENSOR_MODELS,
-    TARE_SAMPLES,
-    TOUCH_FORCE,
-    FingertipGeometry,
-    SensorConfig,
-    Tare,
-)
-from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
-from tactile_gym.sim.scene import FORCE_LIMIT
-from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
-from tactile_gym.validation import (
-    build_config,
-    check_bool,
-    check_choice,
-    check_int,
-    check_number,
-)
+from tactile_gym.envs.task import TERMINATION_REASONS, AxisEstimationTask, StepFacts
+from tactile_gym.estimation import AxisEstimate, axis_error
+from tactile_gym.perception import Measurement, Perceived, Sample
+from tactile_gym.sensing import TARE_SAMPLES, FingertipGeometry
+from tactile_gym.sim import ProbeScene
 from tactile_gym.vec3 import norm
 
 # The termination reasons are documented with the task.
 __all__ = ["HingeProbeConfig", "HingeProbeEnv", "TERMINATION_REASONS"]
 
 
-@dataclass(frozen=True)
-class HingeProbeConfig:
-    """Every parameter of the env; each is a keyword of ``gym.make``.
-
-    The physical parameters are nested: ``skin``, ``sensor`` and ``object`` take fields of
-    :class:`~tactile_gym.sim.SkinConfig`, :class:`~tactile_gym.sensing.SensorConfig` and
-    :class:`~tactile_gym.sim.ObjectConfig` (the last applied to every family before the reset
-    draws); ``gate``, ``task`` and ``scenario`` take fields of ``GateConfig``, ``TaskConfig``
-    and ``ScenarioConfig``. Each holds only what differs from those classes' defaults.
-
-    Attributes:
-        families: object families drawn at reset, from ``scissors, door, lid, tilted``.
-        estimator: ``"planar"`` (axis along world z, paper eq. 16-21) or ``"3d"``.
-        estimator_loss: robust loss of the estimator (``tactile_gym.estimation.LOSSES``).
-        observation_mode: ``"dict"`` or ``"flat"`` (one Box in the order of
-            ``tactile_gym.envs.observation.OBSERVATION_LAYOUT``).
-        max_steps: control steps before the episode is truncated.
-        time_step: physics time step, s.
-        substeps: physics steps per control step (12 at 1/240 s gives 20 Hz control).
-        max_translation: fingertip translation for an action of 1, m (10 um to 10 mm).
-        max_rotation: fingertip rotation for an action of 1, rad.
-        force_limit: guard that stops the fingertip advancing, and where the force penalty
-            starts, N.
-        randomize: draw the object, joint angle and fingertip start at reset; when False
-            every reset uses the nominal scenario.
-        sensor_model: the F/T sensor the ``sensor`` overrides apply to, from
-            ``SENSOR_MODELS``: ``"realistic"`` (offset, drift, the fingertip's weight) or
-            ``"ideal"`` (white noise only; the v1 ids').
-        tare_action: the v2 behaviour: tare at reset and on the action's seventh component
-            (the class docstring); False gives the v1 ids' 6-D action and raw reading.
-        skin, sensor, object, gate, task, scenario: nested overrides (above).
-    """
-
-    families: tuple[str, ...] = ("scissors",)
-    estimator: str = "planar"
-    estimator_loss: str = "soft_l1"
-    observation_mode: str = "dict"
-    max_steps: int = 400
-    time_step: float = TIME_STEP
-    substeps: int = SUBSTEPS
-    max_translation: float = 0.002
-    max_rotation: float = float(np.deg2rad(3.0))
-    force_limit: float = FORCE_LIMIT
-    randomize: bool = True
-    sensor_model: str = "realistic"
-    tare_action: bool = True
-    skin: dict = field(default_factory=dict)
-    sensor: dict = field(default_factory=dict)
-    object: dict = field(default_factory=dict)
-    gate: dict = field(default_factory=dict)
-    task: dict = field(default_factory=dict)
-    scenario: dict = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        families = (self.families,) if isinstance(self.families, str) else self.families
-        if not isinstance(families, (tuple, list)) or not families:
-            raise ValueError(f"families must be a non-empty list from {FAMILIES}, got {families!r}")
-        for family in families:
-            check_choice("families[...]", family, FAMILIES)
-        object.__setattr__(self, "families", tuple(families))
-        check_choice("estimator", self.estimator, ("planar", "3d"))
-        check_choice("estimator_loss", self.estimator_loss, LOSSES)
-        check_choice("observation_mode", self.observation_mode, ("dict", "flat"))
-        if self.estimator == "planar" and set(self.families) - {"scissors"}:
-            raise ValueError(
-                "estimator='planar' assumes a vertical axis, which only the 'scissors' family"
-                f" has; got families {self.families}. Use estimator='3d'."
-            )
-        check_int("max_steps", self.max_steps, 1, 100_000)
-        check_number("time_step", self.time_step, 1e-4, 0.02)
-        check_int("substeps", self.substeps, 1, 100)
-        check_number("max_translation", self.max_translation, 1e-5, 0.01)
-        check_number("max_rotation", self.max_rotation, 0.0, 0.2, low_open=True)
-        check_number("force_limit", self.force_limit, 0.5, 50.0)
-        check_bool("randomize", self.randomize)
-        check_choice("sensor_model", self.sensor_model, SENSOR_MODELS)
-        check_bool("tare_action", self.tare_action)
-        # Build every nested config once, so that a bad field fails here, at construction.
-        self.skin_config()
-        self.sensor_config()
-        axis = np.asarray(self.object_config("scissors").axis)
-        if self.estimator == "planar" and abs(axis[2]) < (1.0 - 1e-9) * np.linalg.norm(axis):
-            raise ValueError(
-                f"estimator='planar' assumes a vertical axis, got object.axis {axis.tolist()}."
-                " Use estimator='3d'."
-            )
-        self.gate_config()
-        self.scenario_config()
-        task = self.task_config()
-        if not task.hard_force_limit > self.force_limit:
-            raise ValueError(
-                f"task.hard_force_limit must exceed force_limit ({self.force_limit} N),"
-                f" got {task.hard_force_limit!r}"
-            )
-
-    def skin_config(self) -> SkinConfig:
-        return build_config(SkinConfig, self.skin, "skin")
-
-    def sensor_config(self) -> SensorConfig:
-        """``sensor_model``'s sensor with the ``sensor`` overrides (or ``sensor`` itself, a
-        ``SensorConfig``)."""
-        if isinstance(self.sensor, SensorConfig):
-            return self.sensor
-        build_config(SensorConfig, self.sensor, "sensor")  # unknown or bad fields fail here
-        changes = {k: tuple(v) if isinstance(v, list) else v for k, v in self.sensor.items()}
-        return SensorConfig.preset(self.sensor_model, **changes)
-
-    def object_config(self, family: str) -> ObjectConfig:
-        """The nominal object of a family with the ``object`` overrides."""
-        if not isinstance(self.object, dict) or not all(isinstance(k, str) for k in self.object):
-            raise ValueError(f"object must be a dict of ObjectConfig fields, got {self.object!r}")
-        return ObjectConfig.family_default(family, **self.object)
-
-    def gate_config(self) -> GateConfig:
-        return build_config(GateConfig, self.gate, "gate")
-
-    def task_config(self) -> TaskConfig:
-        return build_config(TaskConfig, self.task, "task")
-
-    def scenario_config(self) -> ScenarioConfig:
-        return build_config(ScenarioConfig, self.scenario, "scenario")
-
-    @classmethod
-    def from_kwargs(cls, kwargs: dict[str, Any]) -> HingeProbeConfig:
-        """Build a config from keywords, rejecting unknown ones with the allowed list."""
-        allowed = [f.name for f in dataclasses.fields(cls)]
-        unknown = sorted(set(kwargs) - set(allowed))
-        if unknown:
-            raise ValueError(f"unknown HingeProbe keyword(s) {unknown}; allowed: {allowed}")
-        return cls(
-            **{
-                k: tuple(v) if k == "families" and isinstance(v, list) else v
-                for k, v in kwargs.items()
-            }
-        )
-
-
-def _display_available() -> bool:
-    """Whether PyBullet's GUI can open a window (X11 or Wayland on Linux)."""
-    if not sys.platform.startswith("linux"):
-        return True
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
-
-
-class HingeProbeEnv(gym.Env):
+class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
     """Probe a hinged object with a soft fingertip and estimate its joint axis.
 
     ## Description
@@ -228,10 +49,11 @@ class HingeProbeEnv(gym.Env):
     6-axis force/torque sensor) probes the free link of a two-link object with one revolute
     joint, as in Matsuo et al. (IROS 2010). The skin is an elastic-foundation model
     (``docs/design.md`` 3); the F/T reading is the sum of its node forces plus sensor noise.
-    Each control step the env moves the fingertip, reads the sensor and hands the reading to
-    its measurement pipeline (``tactile_gym.envs.measurement``): Bicchi's intrinsic contact
-    sensing, the measurement gate, which accepts only static pure presses on an edge (slides
-    are not measured: ``docs/design.md`` 4.3, 7.2), and the built-in ``JointAxisEstimator``.
+    Each control step the env moves the fingertip, reads the sensor and hands the reading and
+    the fingertip's pose to its measurement pipeline (``tactile_gym.perception``, which runs on
+    a real robot's logs alike): the tare, Bicchi's intrinsic contact sensing, the measurement
+    gate, which accepts only static pure presses on an edge (slides are not measured:
+    ``docs/design.md`` 4.3, 7.2), and the built-in ``JointAxisEstimator``.
     It rewards the reduction of the estimate's error. Measuring the edge at several link
     angles, and turning the link in between, is what makes the axis observable.
 
@@ -340,24 +162,32 @@ class HingeProbeEnv(gym.Env):
 
     ## Episode End
 
-    * ``terminated`` (failure), reasons in ``info["termination"]``: the fingertip's sensor
-      origin leaves the workspace (``task.workspace_radius`` from the hinge pin), the rigid
-      shell bottoms out through the skin, or the force exceeds ``task.hard_force_limit``.
+    * ``terminated`` (failure), each reason a boolean ``info["termination_<reason>"]``
+      (``TERMINATION_REASONS``): the fingertip's sensor origin leaves the workspace
+      (``left_workspace``: ``task.workspace_radius`` from the hinge pin), the rigid shell
+      bottoms out through the skin (``shell_contact``), or the force exceeds
+      ``task.hard_force_limit`` (``overloaded``).
     * ``truncated``: after ``max_steps`` control steps (the env counts them itself, so that
       the observation can say how much time is left; change it with ``max_steps=``).
+      ``env.spec.max_episode_steps`` is ``max_steps``, for tools that read the horizon there.
     * Stepping after either raises ``RuntimeError``; call ``reset()``.
     * ``info["is_success"]``: position error < 2 mm and angle error < 2 deg.
 
-    ``info`` also carries the reward terms, ``position_error`` (m), ``angle_error`` (rad),
-    ``n_measurements``, ``new_measurements``, ``true_axis_point``, ``true_axis_direction``,
-    ``joint_angle`` (rad), ``max_force`` (N) and, in v2, ``tared``, ``tare_refused`` and
-    ``tare_age`` (s) (Action Space). The ground truth in ``info`` is for
-    evaluation only; policies must not read it.
+    ``info`` has the same keys at every reset and step, each a NumPy scalar or array, none a
+    dict, a string or an observation key (the conventions of TorchRL's and Gymnasium's vector
+    info readers): the reward terms, ``is_success``, ``position_error`` (m), ``angle_error``
+    (rad), ``n_measurements``, ``new_measurements``, ``true_axis_point``,
+    ``true_axis_direction``, ``joint_angle`` (rad), ``max_force`` (N), ``force_limited``, the
+    ``termination_<reason>`` flags and, in v2, ``tared``, ``tare_refused`` and ``tare_age``
+    (s) (Action Space); at reset the step's entries are 0 or False. The ground truth in
+    ``info`` is for evaluation only; policies must not read it.
 
     ## Arguments
 
-    Every field of ``HingeProbeConfig`` is a keyword of ``gym.make``; unknown, mistyped or
-    out-of-range ones raise ``ValueError`` saying what is allowed. Shipped presets load by
+    Every field of ``HingeProbeConfig`` is a keyword of ``gym.make``; mistyped or
+    out-of-range ones raise ``ValueError`` saying what is allowed, and unknown ones an error
+    that is both a ``ValueError`` and a ``TypeError`` in Python's wording ("got an unexpected
+    keyword argument"), which tools such as TorchRL's ``GymEnv`` expect. Shipped presets load by
     name::
 
         from tactile_gym.presets import load_preset
@@ -370,6 +200,10 @@ class HingeProbeEnv(gym.Env):
 
     ## Version History
 
+    * 0.4 (no new version: observations, rewards and dynamics are unchanged): ``info`` is flat
+      and numeric (``termination_<reason>`` flags replace the ``termination`` dict; NumPy
+      scalars), the same keys at reset and step; ``env.spec.max_episode_steps`` is
+      ``max_steps``; an unknown keyword raises a ``TypeError`` too.
     * v2: a realistic F/T sensor by default (an offset drawn at reset, a slow drift, the
       fingertip's weight; ``sensor_model="realistic"``), taring at reset and on a seventh
       action component, the observed wrench tared and gravity-compensated
@@ -393,46 +227,20 @@ class HingeProbeEnv(gym.Env):
         render_truth: bool = RenderOptions.render_truth,
         **kwargs: Any,
     ) -> None:
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(
-                f"render_mode must be one of {self.metadata['render_modes']} or None,"
-                f" got {render_mode!r}"
-            )
-        if render_mode == "human" and not _display_available():
-            raise RuntimeError(
-                "render_mode='human' opens PyBullet's GUI, which needs a display, and no DISPLAY"
-                " or WAYLAND_DISPLAY is set. Use render_mode='rgb_array' for headless frames."
-            )
+        check_render_mode(render_mode, self.metadata["render_modes"])
         self.config = cfg = HingeProbeConfig.from_kwargs(kwargs)
+        self._horizon = cfg.max_steps
         self.render_mode = render_mode
         self.render_options = RenderOptions(render_width, render_height, render_truth)
-        modes = [m for m in self.metadata["render_modes"] if m != "human" or _display_available()]
-        self.metadata = {
-            **self.metadata,
-            "render_modes": modes,
-            "render_fps": round(1.0 / (cfg.time_step * cfg.substeps)),
-        }
+        self.period = cfg.time_step * cfg.substeps
+        modes = [m for m in self.metadata["render_modes"] if m != "human" or display_available()]
+        self.metadata = {"render_modes": modes, "render_fps": round(1 / self.period)}
         self.geometry = FingertipGeometry()
-        self._skin_config = cfg.skin_config()
-        self._sensor_config = cfg.sensor_config()
-        self.scenario_config = cfg.scenario_config()
         self.controller = DeltaPoseController(
             cfg.max_translation, cfg.max_rotation, self.geometry.sphere_center
         )
-        prior, edge_distance = reset_distribution_prior(
-            cfg.families, self.scenario_config, self.geometry, cfg.randomize, cfg.object
-        )
-        self.pipeline = MeasurementPipeline(
-            self.geometry,
-            self._sensor_config,
-            self._skin_config.normal_stiffness,
-            cfg.gate_config(),
-            cfg.estimator,
-            cfg.estimator_loss,
-            prior,
-            edge_distance,
-        )
-        self.task = AxisEstimationTask(cfg.task_config())
+        self.pipeline = cfg.pipeline(self.geometry)
+        self.task = AxisEstimationTask(cfg.task_config)
         self.codec = OBSERVATION
         self.dict_observation_space = self.codec.dict_space
         self.observation_space = self.codec.space(cfg.observation_mode)
@@ -443,33 +251,24 @@ class HingeProbeEnv(gym.Env):
         self._scene: ProbeScene | None = None
         # The estimate ``_errors`` belong to (``_true_errors``).
         self._errors_of: AxisEstimate | None = None
-        self._errors = (math.inf, math.pi / 2)
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         cfg = self.config
-        scenario = sample_scenario(
-            self.np_random,
-            cfg.families,
-            self.scenario_config,
-            self.geometry,
-            cfg.randomize,
-            cfg.object,
-        )
+        scenario = cfg.draw_scenario(self.np_random, self.geometry)
         if self._scene is None:
             self._scene = ProbeScene(
                 scenario.object_config,
-                self._skin_config,
-                self._sensor_config,
+                cfg.skin_config,
+                cfg.sensor_config,
                 self.geometry,
                 time_step=cfg.time_step,
                 substeps=cfg.substeps,
                 force_limit=cfg.force_limit,
                 gui=self.render_mode == "human",
             )
-        scene = self._scene
-        scene.reset(
+        self._scene.reset(
             scenario.joint_angle,
             scenario.fingertip_position,
             scenario.fingertip_orientation,
@@ -477,48 +276,30 @@ class HingeProbeEnv(gym.Env):
             rng=self.np_random,
         )
         self._steps = 0
-        self._tare = Tare.of(self._sensor_config)
-        self._tare_step = 0
         # Every episode starts in free air (2-5 mm above the face, "Starting State"): the
         # operator's tare there needs no knowledge of contact.
-        reading = scene.read_wrench(self.np_random, TARE_SAMPLES if cfg.tare_action else 1)
-        if cfg.tare_action:
-            self._tare.take(reading, scene.fingertip_rotation)
-        self._wrench = self._tare.compensate(reading, scene.fingertip_rotation)
-        self.pipeline.reset(self._wrench, scene.fingertip_rotation, scene.fingertip_position)
+        perceived = self.pipeline.reset(self._sample(None, cfg.tare_action))
         self._guard.begin()
         self._errors_of = None  # a new episode's truth: no errors computed for it yet
         position_error, angle_error = self._true_errors()
         self.task.initialize_episode(position_error, angle_error)
-        return self._observation(), self._true_info(position_error, angle_error)
+        return self._observation(), self._true_info(perceived)
 
     def step(self, action):
         action = self._guard.check(action)
-        scene = self._scene
-        position, rotation = self.controller.target(
-            action, scene.fingertip_position, scene.fingertip_rotation
-        )
-        step_info = scene.control_step(position, rotation)
-        tare_info = self._read(rotation, self.config.tare_action and action[6] > 0.5)
-        added = self.pipeline.step(self._wrench, scene.fingertip_rotation, scene.fingertip_position)
+        position, rotation = self.controller.target(action, *self._scene.fingertip_pose)
+        step_info = self._scene.control_step(position, rotation)
         self._steps += 1
+        perceived = self.pipeline.step(self._sample(rotation, self._tare_asked(action)))
         facts = self._true_facts(step_info, action[:6])
-        reward, reward_info = self.task.get_reward(facts)
         reasons = self.task.get_termination(facts)
         terminated = any(reasons.values())
+        reward, terms = self.task.get_reward(facts, terminated)
         truncated = self._steps >= self.config.max_steps and not terminated
         self._guard.end(terminated or truncated)
-        info = {
-            **self._true_info(facts.position_error, facts.angle_error),
-            **reward_info,
-            "max_force": facts.max_force,
-            "force_limited": bool(step_info.force_limited),
-            "termination": reasons,
-            "new_measurements": added,
-            **tare_info,
-        }
         if self.render_mode == "human":
             self.render()
+        info = self._true_info(perceived, facts, step_info.force_limited, terms, reasons)
         return self._observation(), reward, terminated, truncated, info
 
     def render(self):
@@ -527,22 +308,13 @@ class HingeProbeEnv(gym.Env):
         (``tactile_gym.envs.render``)."""
         if self._scene is None or self.render_mode != "rgb_array":
             return None
-        scene, pipeline, options = self._scene, self.pipeline, self.render_options
-        image, camera = scene.render(options.render_width, options.render_height)
-        touch = pipeline.touch
-        tip = scene.sensor_to_world_point(self.geometry.sphere_center)
-        origin = touch.point if touch.valid else tip
-        estimate = pipeline.estimate
-        overlay = Overlay(
-            step=self._steps,
-            force=scene.sensor_to_world_vector(self._wrench[:3]),
-            force_origin=origin,
-            points=np.array([m.point for m in pipeline.measurements]).reshape(-1, 3),
-            edges=np.array([m.edge for m in pipeline.measurements]).reshape(-1, 3),
-            axis=(estimate.point, estimate.direction),
-            true_axis=self._true_axis_for_render() if options.render_truth else None,
-        )
-        return draw_overlay(image, camera, overlay)
+        return self.frame()
+
+    def frame(self, caption: str = "") -> np.ndarray:
+        """The current frame, with ``caption`` in its key (the primitive env's)."""
+        options = self.render_options
+        truth = self._true_axis_for_render() if options.render_truth else None
+        return draw_frame(self._scene, self.pipeline, self._steps, options, truth, caption)
 
     def close(self):
         self._guard.stop()
@@ -550,29 +322,21 @@ class HingeProbeEnv(gym.Env):
             self._scene.close()
             self._scene = None
 
-    def _read(self, rotation: np.ndarray, tare: bool) -> dict[str, Any]:
-        """Read the sensor into ``self._wrench`` (tared, gravity-compensated at the commanded
-        ``rotation``), taring first if asked and the reading does not say touching.
+    def _tare_asked(self, action: np.ndarray) -> bool:
+        return bool(self.config.tare_action and action[6] > 0.5)
 
-        Returns:
-            The tare's ``info`` entries (none without ``tare_action``).
-        """
-        # A tare's reading averages TARE_SAMPLES sensor samples over the step.
-        reading = self._scene.read_wrench(self.np_random, TARE_SAMPLES if tare else 1)
-        self._wrench = self._tare.compensate(reading, rotation)
-        if not self.config.tare_action:
-            return {}
-        refused = tare and norm(self._wrench[:3]) >= TOUCH_FORCE
-        if tare and not refused:
-            self._tare.take(reading, rotation)
-            self._tare_step = self._steps + 1
-            self._wrench = self._tare.compensate(reading, rotation)
-        period = self.config.time_step * self.config.substeps
-        return {
-            "tared": bool(tare and not refused),
-            "tare_refused": bool(refused),
-            "tare_age": (self._steps + 1 - self._tare_step) * period,
-        }
+    def _sample(self, commanded_rotation: np.ndarray | None, tare: bool) -> Sample:
+        """This step's reading and the fingertip's pose, as a robot logs them; a tare's
+        reading averages ``TARE_SAMPLES`` sensor samples (``docs/design.md`` 5.1)."""
+        scene = self._scene
+        return Sample(
+            time=self._steps * self.period,
+            wrench=scene.read_wrench(self.np_random, TARE_SAMPLES if tare else 1),
+            position=scene.fingertip_position,
+            rotation=scene.fingertip_rotation,
+            tare=tare,
+            commanded_rotation=commanded_rotation,
+        )
 
     # ------------------------------------------------------------------ accessors
     @property
@@ -599,23 +363,13 @@ class HingeProbeEnv(gym.Env):
 
     def _observation(self):
         """The observation of the current state (reads state only, changes nothing)."""
-        scene, pipeline = self._scene, self.pipeline
-        last = pipeline.last
-        groups = (
-            ContactObs.from_touch(pipeline.touch),
-            EstimateObs.from_estimate(pipeline.estimate),
-            FingertipPoseObs(scene.fingertip_position, scene.fingertip_orientation),
-            LastMeasurementObs.from_measurement(last),
-            ProgressObs(
-                span=pipeline.span,
-                directions=pipeline.directions,
-                last_edge_std=NO_EDGE if last is None else last.edge_std,
-                measurements=len(pipeline.measurements),
-                time_left=1.0 - self._steps / self.config.max_steps,
-            ),
-            WrenchObs(self._wrench[:3], self._wrench[3:]),
+        scene = self._scene
+        parts = pipeline_parts(
+            self.pipeline,
+            scene.fingertip_position,
+            scene.fingertip_orientation,
+            time_left=1.0 - self._steps / self.config.max_steps,
         )
-        parts = {group.key: group.to_array() for group in groups}
         return self.codec.encode(parts, self.config.observation_mode)
 
     # ------------------------------------------------------------------ ground truth
@@ -652,14 +406,29 @@ class HingeProbeEnv(gym.Env):
         point, direction = self._scene.true_axis
         return point.copy(), direction.copy()
 
-    def _true_info(self, position_error: float, angle_error: float) -> dict[str, Any]:
+    def _true_info(
+        self,
+        perceived: Perceived,
+        facts: StepFacts | None = None,
+        force_limited: bool = False,
+        terms: dict[str, float] | None = None,
+        reasons: dict[str, bool] | None = None,
+    ) -> dict[str, Any]:
+        """The ``info`` of a reset (no step facts: the step's entries 0 or False) or a step,
+        flat and numeric (class docstring, Episode End)."""
         point, direction = self._scene.true_axis
-        return {
-            "is_success": self.task.is_success(position_error, angle_error),
-            "position_error": position_error,
-            "angle_error": angle_error,
-            "n_measurements": len(self.pipeline.measurements),
+        info = {
+            **self.task.info(*self._true_errors(), terms, reasons),
+            "n_measurements": np.int64(len(self.pipeline.measurements)),
+            "new_measurements": np.int64(len(perceived.accepted)),
             "true_axis_point": point,  # the scene's copies
             "true_axis_direction": direction,
-            "joint_angle": float(self._scene.joint_angle),
+            "joint_angle": np.float64(self._scene.joint_angle),
+            "max_force": np.float64(0.0 if facts is None else facts.max_force),
+            "force_limited": np.bool_(force_limited),
         }
+        if self.config.tare_action:
+            info["tared"] = np.bool_(perceived.tared)
+            info["tare_refused"] = np.bool_(perceived.tare_refused)
+            info["tare_age"] = np.float64(self.pipeline.tare_age(self._steps * self.period))
+        return info

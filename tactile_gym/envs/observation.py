@@ -40,6 +40,7 @@ __all__ = [
     "PrimitiveObs",
     "ProgressObs",
     "WrenchObs",
+    "pipeline_parts",
 ]
 
 #: Bounds of the observation entries (observations are clipped to them).
@@ -156,7 +157,7 @@ class ContactObs(ObservationGroup):
 
     @classmethod
     def from_touch(cls, touch: Any) -> ContactObs:
-        """The entries of a ``Touch`` (``tactile_gym.envs.measurement``)."""
+        """The entries of a ``Touch`` (``tactile_gym.sensing.probing``)."""
         zeros = np.zeros(3)
         if not touch.valid:
             return cls(0.0, zeros, zeros, zeros, NO_EDGE, 0.0)
@@ -291,6 +292,29 @@ class ObservationCodec:
         if isinstance(obs, Mapping):
             return dict(obs)
         return {key: obs[s] for key, s in self._slices.items()}
+
+
+def pipeline_parts(pipeline: Any, position, quaternion, time_left: float) -> dict:
+    """The arrays of every key of the ``HingeProbe`` observation (``to_array``, to encode):
+    the state of a measurement pipeline (``tactile_gym.perception.MeasurementPipeline``: the
+    last reading and its touch, the estimate, the measurements) and the fingertip's pose
+    (world, m; quaternion x y z w), with the fraction of the episode left."""
+    last = pipeline.last
+    groups = (
+        ContactObs.from_touch(pipeline.touch),
+        EstimateObs.from_estimate(pipeline.estimate),
+        FingertipPoseObs(position, quaternion),
+        LastMeasurementObs.from_measurement(last),
+        ProgressObs(
+            span=pipeline.span,
+            directions=pipeline.directions,
+            last_edge_std=NO_EDGE if last is None else last.edge_std,
+            measurements=len(pipeline.measurements),
+            time_left=time_left,
+        ),
+        WrenchObs(pipeline.wrench[:3], pipeline.wrench[3:]),
+    )
+    return {group.key: group.to_array() for group in groups}
 
 
 #: The codec of the ``HingeProbe`` ids (the primitive ids add ``PrimitiveObs``).

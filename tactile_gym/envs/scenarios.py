@@ -14,10 +14,15 @@ finger leans (uniform in azimuth). The policy finds the edge by touch (``docs/de
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from tactile_gym.estimation import AxisPrior
+from tactile_gym.perception.gate import line_distance
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.sim import ObjectConfig
 from tactile_gym.sim.config import FAMILIES
@@ -26,13 +31,17 @@ from tactile_gym.validation import check_number, check_range
 
 __all__ = [
     "FAMILIES",
+    "PRIOR_SAMPLES",
     "Scenario",
     "ScenarioConfig",
     "probed_edge",
+    "reset_distribution_prior",
     "sample_scenario",
 ]
 
 _DEG = np.pi / 180.0
+#: Scenario draws behind the prior (the reset distribution's), from a fixed seed.
+PRIOR_SAMPLES = 512
 
 
 @dataclass(frozen=True)
@@ -188,3 +197,65 @@ def sample_scenario(
     angle = float(np.clip(draws[0], object_config.lower_limit, object_config.upper_limit))
     position, orientation = _start_pose(object_config, angle, *draws[1:], geometry)
     return Scenario(object_config, angle, position, orientation)
+
+
+def reset_distribution_prior(
+    families: tuple[str, ...],
+    scenario: ScenarioConfig,
+    geometry: FingertipGeometry,
+    randomize: bool,
+    object_overrides: dict,
+) -> tuple[AxisPrior, tuple[float, float]]:
+    """What is known before touching: the axis prior of a reset distribution, and the
+    distance of the probed edge from the axis (mean, std, m; ``MeasurementGate.same_edge``).
+
+    Drawn from ``PRIOR_SAMPLES`` scenarios (one without ``randomize``) of a fixed seed, never
+    from an episode. Every env made with the same families, ranges and overrides draws the
+    same scenarios, so the result is drawn once per process and shared (its arrays are
+    read-only): the draws are most of a ``gym.make``'s time.
+    """
+    return _drawn_prior(
+        tuple(families),
+        _frozen(dataclasses.asdict(scenario)),
+        geometry,
+        bool(randomize),
+        _frozen(object_overrides),
+    )
+
+
+@functools.lru_cache(maxsize=64)
+def _drawn_prior(
+    families: tuple[str, ...],
+    scenario: tuple,
+    geometry: FingertipGeometry,
+    randomize: bool,
+    object_overrides: tuple,
+) -> tuple[AxisPrior, tuple[float, float]]:
+    """``reset_distribution_prior`` of hashable (``_frozen``) arguments."""
+    scenario_config = ScenarioConfig(**dict(scenario))
+    rng = np.random.default_rng(0)
+    pins, directions, distances = [], [], []
+    for _ in range(PRIOR_SAMPLES if randomize else 1):
+        drawn = sample_scenario(
+            rng, families, scenario_config, geometry, randomize, dict(object_overrides)
+        )
+        config = drawn.object_config
+        pins.append(config.joint_position)
+        directions.append(config.axis)
+        origin, edge, _, _ = probed_edge(config, 0.0)
+        distances.append(
+            line_distance(origin, edge, np.asarray(config.joint_position), config.axis)
+        )
+    prior = AxisPrior.from_samples(np.array(pins), np.array(directions))
+    for array in (prior.pin, prior.pin_cov, prior.direction):
+        array.flags.writeable = False
+    return prior, (float(np.mean(distances)), float(np.std(distances)))
+
+
+def _frozen(value: Any) -> Any:
+    """A hashable copy of a config value: dicts as sorted item pairs, sequences as tuples."""
+    if isinstance(value, dict):
+        return tuple(sorted((key, _frozen(item)) for key, item in value.items()))
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return tuple(_frozen(item) for item in value)
+    return value

@@ -49,6 +49,7 @@ from tactile_gym.vec3 import cross, norm
 __all__ = [
     "ACTION_SIZE",
     "PRIMITIVES",
+    "PRIMITIVE_KIND",
     "Drag",
     "Lift",
     "Move",
@@ -64,6 +65,9 @@ __all__ = [
 
 #: The probing primitives, chosen by the sign of action[0] (``primitive_skills``).
 PRIMITIVES = ("probe", "turn")
+#: Each primitive's code in the observation (``PrimitiveObs.kind``; 0: none yet) and in
+#: ``info["primitive_kind"]`` of the primitive ids.
+PRIMITIVE_KIND = {"probe": -1, "turn": 1}
 
 UP = np.array([0.0, 0.0, 1.0])
 #: A skill's action: the 6-D motion and the tare request (``HingeProbeEnv``'s Action Space).
@@ -479,7 +483,7 @@ class PrimitiveExecutor:
         if self.name is None:
             return
         self.summary = PrimitiveObs(
-            kind=1.0 if self.name == "turn" else -1.0,
+            kind=float(PRIMITIVE_KIND[self.name]),
             measured=float(ProgressObs.read(obs).measurements > self._count),
             duration=self._steps / self.max_steps,
         ).to_array()

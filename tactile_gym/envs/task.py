@@ -142,9 +142,9 @@ class AxisEstimationTask:
         else:
             self._previous_error = self.combined_error(position_error, angle_error)
 
-    def get_reward(self, facts: StepFacts) -> tuple[float, dict[str, float]]:
+    def get_reward(self, facts: StepFacts, terminated: bool) -> tuple[float, dict[str, float]]:
         """Reward for one step and its terms, which sum to the reward; a step that fails
-        (:meth:`get_termination`) pays the termination penalty."""
+        (``terminated``, from :meth:`get_termination`) pays the termination penalty."""
         cfg = self.config
         if cfg.prior_error is not None and facts.measurements == 0:
             error = cfg.prior_error
@@ -158,7 +158,7 @@ class AxisEstimationTask:
             error_reduction,
             -cfg.force_penalty * excess,
             -cfg.action_cost * (action @ action),
-            -cfg.termination_penalty * any(self.get_termination(facts).values()),
+            -cfg.termination_penalty * bool(terminated),
         )
         terms = {name: float(value) for name, value in zip(REWARD_TERMS, values)}
         return float(sum(terms.values())), terms
@@ -170,6 +170,28 @@ class AxisEstimationTask:
             "shell_contact": bool(facts.shell_contact),
             "overloaded": bool(facts.max_force > self.config.hard_force_limit),
         }
+
+    def info(
+        self,
+        position_error: float,
+        angle_error: float,
+        terms: dict[str, float] | None = None,
+        reasons: dict[str, bool] | None = None,
+    ) -> dict[str, np.generic]:
+        """The task's entries of a step's ``info``, NumPy scalars: success, the errors, each
+        reward term (``REWARD_TERMS``) and a ``termination_<reason>`` flag per reason
+        (``TERMINATION_REASONS``); without a step (a reset) the terms are 0 and the flags
+        False."""
+        info = {
+            "is_success": np.bool_(self.is_success(position_error, angle_error)),
+            "position_error": np.float64(position_error),
+            "angle_error": np.float64(angle_error),
+        }
+        for term in REWARD_TERMS:
+            info[term] = np.float64(0.0 if terms is None else terms[term])
+        for reason in TERMINATION_REASONS:
+            info[f"termination_{reason}"] = np.bool_(reasons is not None and reasons[reason])
+        return info
 
     def is_success(self, position_error: float, angle_error: float) -> bool:
         """Both errors below their success thresholds."""

@@ -1,8 +1,8 @@
 """The measurement gate: which touches become measurements for the joint-axis estimator.
 
-Each control step the gate takes one F/T reading and the fingertip's pose (both known to a
-real robot), never the simulator, and keeps a measurement only where the physics makes the
-sensing valid (``docs/design.md`` 7.2, which gives the figures behind every threshold). A
+Each sample the gate takes one F/T reading and the fingertip's pose (both known to a real
+robot), never the simulator, and keeps a measurement only where the physics makes the sensing
+valid (``docs/design.md`` 7.2, which gives the figures behind every threshold). A
 measurement is a static, pure press on the edge of a face. Over the readings since the skin
 last was free (a reading below ``TOUCH_FORCE``), a press is accepted when:
 
@@ -38,8 +38,9 @@ the link's end and corners. Slides are not measured (``docs/design.md`` 4.3). Ev
 edge is oriented physically (``tactile_gym.sensing.probing``).
 
 The rules are functions of a :class:`GateConfig`, so that the regime map
-(``benchmarks/regime_map``) tests the same rules it supports. World frame, metres, newtons,
-radians.
+(``benchmarks/regime_map``) tests the same rules it supports. Every refusal names its rule
+(``GATE_RULES``) and says why. World frame, metres, newtons, radians. NumPy only: the
+measurement pipeline of a simulated or a real robot (``tactile_gym.perception``) runs it.
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ from tactile_gym.validation import check_bool, check_int, check_number, check_ra
 from tactile_gym.vec3 import norm
 
 __all__ = [
+    "GATE_RULES",
     "GateConfig",
     "Measurement",
     "MeasurementGate",
@@ -70,6 +72,24 @@ __all__ = [
 ]
 
 _DEG = np.pi / 180.0
+
+#: The names of the gate's rules, as a refusal reports them (``MeasurementGate.last_rule``):
+#: the press rules of the module docstring in their order, then the same-edge test's two.
+GATE_RULES = (
+    "steady",
+    "contact",
+    "press_depth",
+    "observable",
+    "min_tilt",
+    "friction_free",
+    "preload",
+    "drag_bias",
+    "link_held",
+    "press_rotation",
+    "table_clearance",
+    "hinge_distance",
+    "same_edge",
+)
 
 
 @dataclass(frozen=True)
@@ -309,7 +329,30 @@ class MeasurementGate:
         self._window: list[np.ndarray] = []
         # The skin's displacement at the contact, step by step since the first touch.
         self._patch: list[np.ndarray] = []
+        #: Why the last press or same-edge test refused a measurement ("" after an accept).
         self.last_rejection = ""
+        #: The rule (``GATE_RULES``) that refused it ("" after an accept).
+        self.last_rule = ""
+        #: How many presses and same-edge tests refused a measurement this episode.
+        self.refusals = 0
+
+    def end_touch(self) -> None:
+        """End the touch in progress, as when the skin reads free: the next contact starts a
+        new touch (a robot's "lift" event)."""
+        self._touch_pose, self._pressed = None, False
+        self._window = []
+
+    def interrupt(self, rule: str, why: str) -> None:
+        """Spoil the touch in progress after a fault in the stream of readings (a dropped
+        sample, a repeated time, a pose jump): its still window and its path since the first
+        touch are broken, so it gives no measurement, refused under ``rule``; the next touch
+        starts afresh once the skin is free. The motion since the last pose is unknown, so the
+        next reading is not still."""
+        if self._touch_pose is not None and not self._pressed:
+            self._pressed = True
+            self._window = []
+            self._reject(rule, why)
+        self._pose = None
 
     def offer(self, wrench: np.ndarray, rotation: np.ndarray, position: np.ndarray, touch: Touch):
         """Offer one control step's reading; return the measurements it completes (0 or 1).
@@ -325,8 +368,7 @@ class MeasurementGate:
         self._pose = (rotation.copy(), position.copy())
         magnitude = norm(touch.force)
         if not touch.valid:  # |f| below TOUCH_FORCE, or no contact explains the wrench
-            self._touch_pose, self._pressed = None, False
-            self._window = []
+            self.end_touch()
             return []
         if self._touch_pose is None:
             # The press path starts at the last pose without contact (its direction tells a
@@ -360,33 +402,41 @@ class MeasurementGate:
         turned = 0.0 if (rotation == r0).all() else norm(matrix_to_rotvec(rotation @ r0.T))
         return norm(position - p0), turned
 
-    def _reject(self, why: str) -> None:
-        self.last_rejection = why
+    def _reject(self, rule: str, why: str) -> None:
+        self.last_rule, self.last_rejection = rule, why
+        self.refusals += 1
 
     def _press(self, rotation: np.ndarray, position: np.ndarray) -> Measurement | None:
         cfg = self.config
         window = np.asarray(self._window)
         spread = float(np.ptp(np.linalg.norm(window[:, :3], axis=1)))
         if spread > cfg.max_force_spread:
-            return self._reject(f"force changed by {spread:.2f} N while still (the link moved)")
+            return self._reject(
+                "steady", f"force changed by {spread:.2f} N while still (the link moved)"
+            )
         touch = self.sensor.sense(window.mean(axis=0), rotation, position, readings=len(window))
         if not touch.valid:
-            return self._reject("averaged press gave no contact")
+            return self._reject("contact", "averaged press gave no contact")
         r0, p0 = self._touch_pose
         path = position - p0
         depth = float(np.linalg.norm(path))
         magnitude = float(np.linalg.norm(touch.force))
         if depth < cfg.min_press_depth:
-            return self._reject(f"press depth {depth:.2e} m < {cfg.min_press_depth} m")
+            return self._reject(
+                "press_depth", f"press depth {depth:.2e} m < {cfg.min_press_depth} m"
+            )
         if not touch.observable:
-            return self._reject("the press shows no edge (untilted force)")
+            return self._reject("observable", "the press shows no edge (untilted force)")
         if touch.tilt < cfg.min_tilt:
-            return self._reject(f"force tilt {np.degrees(touch.tilt):.1f} deg below min_tilt")
+            return self._reject(
+                "min_tilt", f"force tilt {np.degrees(touch.tilt):.1f} deg below min_tilt"
+            )
         deviation = float(np.arccos(np.clip(-(path / depth) @ touch.force / magnitude, -1, 1)))
         if not friction_free(deviation, touch.tilt, cfg):
             return self._reject(
+                "friction_free",
                 f"press path {np.degrees(deviation):.2f} deg off the force line, more than"
-                f" {cfg.friction_share} x its {np.degrees(touch.tilt):.2f} deg tilt (friction)"
+                f" {cfg.friction_share} x its {np.degrees(touch.tilt):.2f} deg tilt (friction)",
             )
         along = abs(float(path @ touch.edge))
         if cfg.preload_rule:
@@ -394,9 +444,10 @@ class MeasurementGate:
             off = tangential_travel(self._patch, path / depth)
             if not friction_free(float(np.arctan(off / depth)), touch.tilt, cfg):
                 return self._reject(
+                    "preload",
                     f"skin preload: the contact travelled {off * 1e3:.2f} mm off the press"
                     f" line since the first touch, over {depth * 1e3:.2f} mm of depth, more"
-                    f" than {cfg.friction_share} x the {np.degrees(touch.tilt):.2f} deg tilt"
+                    f" than {cfg.friction_share} x the {np.degrees(touch.tilt):.2f} deg tilt",
                 )
             along = max(along, travel_along(self._patch, touch.edge, path / depth))
         drag = float(np.arcsin(min(along / depth, 1.0)))
@@ -407,17 +458,22 @@ class MeasurementGate:
         bias = float(drag_bias(drag, touch.tilt, cfg.drag_gain))
         if not bias_within_budget(bias, touch.edge_std, cfg):
             return self._reject(
+                "drag_bias",
                 f"drag bias {np.degrees(bias):.2f} deg + 2 x edge std"
-                f" {np.degrees(touch.edge_std):.2f} deg over the budget"
+                f" {np.degrees(touch.edge_std):.2f} deg over the budget",
             )
         travel = float(np.linalg.norm(position - self._contact_position))
         if not link_held(travel, magnitude, self.sensor.skin_stiffness, self._radius, cfg):
-            return self._reject(f"press travel {travel:.2e} m since contact: the link gave way")
+            return self._reject(
+                "link_held", f"press travel {travel:.2e} m since contact: the link gave way"
+            )
         if np.linalg.norm(matrix_to_rotvec(rotation @ r0.T)) > cfg.max_press_rotation:
-            return self._reject("fingertip turned during the press")
+            return self._reject("press_rotation", "fingertip turned during the press")
         lowest = float((rotation @ self._centre + position)[2]) - self._radius
         if lowest < cfg.table_clearance:
-            return self._reject(f"the skin reaches {lowest * 1e3:.1f} mm above the table")
+            return self._reject(
+                "table_clearance", f"the skin reaches {lowest * 1e3:.1f} mm above the table"
+            )
         # The drag bias turns the edge within the face: about the force line.
         turn = np.cross(touch.force / magnitude, touch.edge)
         cov = touch.edge_cov + bias * bias * np.outer(turn, turn) / (turn @ turn)
@@ -429,9 +485,10 @@ class MeasurementGate:
         when None) from the estimated axis (module docstring)."""
         radius = estimate.distance_to(m.point)
         if radius < self.config.min_hinge_distance + estimate.position_std:
-            self.last_rejection = (
+            self._reject(
+                "hinge_distance",
                 f"too near the hinge ({radius * 1e3:.1f} mm from the estimated axis): the links"
-                " overlap there"
+                " overlap there",
             )
             return False
         if self.edge_distance is None:
@@ -450,15 +507,16 @@ class MeasurementGate:
         )
         if abs(distance - mean) <= self.config.identity_tolerance + 3.0 * spread:
             return True
-        self.last_rejection = (
+        self._reject(
+            "same_edge",
             f"another edge: its line lies {distance * 1e3:.1f} mm from the estimated axis,"
-            f" the probed edge {mean * 1e3:.1f} +- {std * 1e3:.1f} mm"
+            f" the probed edge {mean * 1e3:.1f} +- {std * 1e3:.1f} mm",
         )
         return False
 
     def _accept(self, point: np.ndarray, edge: np.ndarray, cov: np.ndarray) -> Measurement:
         cov = _floored(edge, cov, self.config.edge_std_floor)
-        self.last_rejection = ""
+        self.last_rule = self.last_rejection = ""
         return Measurement(
             point=np.array(point, dtype=float),
             edge=np.array(edge, dtype=float),

@@ -1,60 +1,168 @@
-"""The measurement pipeline: touch sensing, the measurement gate and the axis estimator, wired.
+"""The measurement pipeline: a stream of F/T readings and fingertip poses in, the axis out.
 
-Each control step one noisy F/T reading and the fingertip's pose (both known to a real robot)
-go in. The pipeline estimates the contact in the world frame (``TouchSensor``,
-``docs/design.md`` 5), offers the reading to the gate (7.2), keeps what the gate accepts on the
-probed edge (``MeasurementGate.same_edge``: the edge line at the distance from the current
-estimate that the reset distribution predicts), fuses it into the estimate
-(``JointAxisEstimator``, 6) and counts the distinct edge directions measured (the observation's
-progress, 7.5). It never sees the simulator (8).
+Each sample (:class:`Sample`: the time, the wrench, the fingertip's pose and the robot's
+events) goes through, in order:
 
-What is known before touching comes from the reset distribution, drawn from a fixed seed and
-never from the episode: the axis prior (6.6) and the probed edge's distance from the axis
-(``reset_distribution_prior``).
+1. the stream checks: a sample that repeats or reverses the time, that follows a gap of more
+   than ``max_gap`` periods (a dropped sample), whose pose jumped further than the fingertip
+   can move, or whose numbers are not finite spoils the touch in progress (its press is
+   refused with the fault's name, ``STREAM_FAULTS``); a sample that is not finite, or not
+   later than the last, is then dropped;
+2. the tare (``tactile_gym.sensing.Tare``, ``docs/design.md`` 5.1): a raw reading is
+   compensated by the last tare and the change of the fingertip's weight with its rotation;
+   a ``tare`` event takes a new tare on the sample's reading, refused while the reading of
+   an earlier tare says touching (|f| >= ``TOUCH_FORCE``; the first tare has nothing to go
+   by); a reading already tared by the robot passes as is;
+3. the touch sensing (``TouchSensor.sense``: Bicchi's contact point, the edge, in the world
+   frame by the pose);
+4. the measurement gate (``MeasurementGate``, ``docs/design.md`` 7.2), then its same-edge
+   test against the current estimate (the expected distance of the probed edge from the axis,
+   ``edge_distance``, handed in);
+5. the online estimator (handed in, e.g. ``JointAxisEstimator`` with its prior), refitted
+   when a measurement is accepted;
+6. the count of distinct edge directions (the env's progress observation).
 
-This is the one module of the env that imports the probing stack (touch sensing and gate);
-the env and the tests take its parts from here.
+It never sees a simulator: the env (``tactile_gym.envs``) and the log replay
+(``tactile_gym.replay``) feed it alike, and what is known before touching (the prior inside
+the estimator, the edge distance) is handed to it. NumPy and SciPy only.
+
+Conventions (``docs/design.md`` 2): SI units; wrenches in the sensor frame (force on the
+fingertip, moment about the sensor origin); poses map sensor to world; time in seconds.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import functools
-from typing import Any
+import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from tactile_gym.envs.gate import GateConfig, Measurement, MeasurementGate, line_distance
-from tactile_gym.envs.scenarios import ScenarioConfig, probed_edge, sample_scenario
-from tactile_gym.estimation import AxisEstimate, AxisPrior, JointAxisEstimator
-from tactile_gym.sensing import FingertipGeometry, SensorConfig, Touch, TouchSensor
+from tactile_gym.estimation import AxisEstimate
+from tactile_gym.perception.gate import GateConfig, Measurement, MeasurementGate
+from tactile_gym.sensing import (
+    TOUCH_FORCE,
+    FingertipGeometry,
+    SensorConfig,
+    Tare,
+    Touch,
+    TouchSensor,
+)
+from tactile_gym.vec3 import norm
 
 __all__ = [
     "DISTINCT_ANGLE",
-    "GateConfig",
-    "Measurement",
+    "STREAM_FAULTS",
     "MeasurementPipeline",
-    "reset_distribution_prior",
+    "Perceived",
+    "PressRecord",
+    "Sample",
+    "StreamLimits",
 ]
 
 #: Edge directions closer than this count as one link angle in the progress, rad.
 DISTINCT_ANGLE = float(np.deg2rad(3.0))
-#: Scenario draws behind the prior (the reset distribution's), from a fixed seed.
-PRIOR_SAMPLES = 512
+#: The faults of a stream that refuse the press they interrupt (the pipeline's step 1).
+STREAM_FAULTS = ("non_finite", "time_order", "dropped_sample", "pose_jump")
+
+
+@dataclass(frozen=True, eq=False)
+class Sample:
+    """One reading of the F/T sensor with the fingertip's pose: one row of a robot's log.
+
+    Attributes:
+        time: s, increasing.
+        wrench: (6,) force on the fingertip (N) and moment about the sensor origin (N m),
+            sensor frame: raw, or already tared and gravity-compensated when ``tared``.
+        position: (3,) the sensor origin, world frame, m.
+        rotation: (3, 3) the fingertip's rotation, sensor to world.
+        tared: the robot tared and gravity-compensated ``wrench`` itself.
+        tare: take a tare on this reading (held still in free air), unless it says touching.
+        lift: the robot lifted off: the touch in progress, if any, ends here.
+        commanded_rotation: (3, 3) the rotation the robot commanded, where it logs one apart
+            from the measured ``rotation``; the gravity compensation takes it (the env passes
+            its controller's target). None: ``rotation``.
+    """
+
+    time: float
+    wrench: np.ndarray
+    position: np.ndarray
+    rotation: np.ndarray
+    tared: bool = False
+    tare: bool = False
+    lift: bool = False
+    commanded_rotation: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class StreamLimits:
+    """What a stream of samples may do before a sample counts as a fault (step 1).
+
+    Attributes:
+        period: the nominal time between samples, s (the env's control period).
+        max_gap: a gap longer than this many periods is a dropped sample.
+        max_speed: the fingertip's fastest plausible motion, m/s (a larger jump is a fault).
+        max_angular_speed: its fastest plausible turn, rad/s.
+    """
+
+    period: float = 0.05
+    max_gap: float = 1.5
+    max_speed: float = 0.25
+    max_angular_speed: float = 3.0
+
+
+@dataclass(frozen=True, eq=False)
+class Perceived:
+    """What one sample gave.
+
+    Attributes:
+        wrench: (6,) the reading, tared and gravity-compensated, sensor frame (zeros for a
+            dropped sample).
+        touch: the contact estimate of this reading alone.
+        accepted: the measurements it completed that entered the estimate (0 or 1).
+        tared: a tare was taken on it.
+        tare_refused: a tare was asked for and refused (the reading says touching).
+        fault: the stream fault it showed (``STREAM_FAULTS``), or "".
+    """
+
+    wrench: np.ndarray
+    touch: Touch
+    accepted: tuple[Measurement, ...]
+    tared: bool
+    tare_refused: bool
+    fault: str
+
+
+@dataclass(frozen=True)
+class PressRecord:
+    """A press the pipeline judged: accepted, or refused by a rule of the gate or a fault.
+
+    Attributes:
+        time: s, of the sample that completed or spoiled it.
+        accepted: whether it entered the estimate.
+        rule: the rule that refused it (``GATE_RULES``, ``STREAM_FAULTS``), "" if accepted.
+        reason: why, in words.
+    """
+
+    time: float
+    accepted: bool
+    rule: str
+    reason: str
 
 
 class MeasurementPipeline:
-    """Turns each step's F/T reading and fingertip pose into measurements and an estimate.
+    """Turns a stream of samples into measurements and an axis estimate (module docstring).
 
     Args:
         geometry: the fingertip.
-        sensor: the F/T sensor's noise (the predicted errors of the sensing).
+        sensor: the F/T sensor: its noise (the sensing's predicted errors) and the fingertip's
+            mass and centre of mass (the gravity compensation).
         skin_stiffness: Winkler modulus of the skin, N/m^3 (the indentation correction).
         gate: the gate's thresholds.
-        estimator: ``"planar"`` or ``"3d"`` (``JointAxisEstimator``'s mode).
-        loss: the estimator's robust loss.
-        prior: the axis prior; the estimate before any measurement.
-        edge_distance: expected distance of the probed edge from the axis (mean, std), m.
+        estimator: the online estimator, with its prior (``add``, ``estimate``, ``reset``,
+            as ``tactile_gym.estimation.JointAxisEstimator``).
+        edge_distance: expected distance of the probed edge from the axis (mean, std), m;
+            None: the same-edge test only keeps contacts clear of the hinge.
+        limits: the stream's limits.
     """
 
     def __init__(
@@ -63,47 +171,66 @@ class MeasurementPipeline:
         sensor: SensorConfig,
         skin_stiffness: float,
         gate: GateConfig,
-        estimator: str,
-        loss: str,
-        prior: AxisPrior,
-        edge_distance: tuple[float, float],
+        estimator,
+        edge_distance: tuple[float, float] | None = None,
+        limits: StreamLimits = StreamLimits(),  # noqa: B008 - frozen dataclass
     ) -> None:
         self.sensor = TouchSensor(geometry, sensor, skin_stiffness)
         self.gate = MeasurementGate(gate, self.sensor)
         self.gate.edge_distance = edge_distance
-        # The estimator fuses the prior with the measurements (maximum a posteriori), so its
-        # estimate is the prior before any measurement and leaves it as evidence accrues.
-        self.estimator = JointAxisEstimator(mode=estimator, loss=loss, prior=prior)
-        self.measurements: list[Measurement] = []
+        self.estimator = estimator
+        self.limits = limits
+        self._tare = Tare.of(sensor)
 
-    def reset(self, wrench: np.ndarray, rotation: np.ndarray, position: np.ndarray) -> None:
-        """Start an episode from its first reading (sensed, not offered to the gate)."""
+    def reset(self, sample: Sample) -> Perceived:
+        """Start an episode (a log) from its first sample: tared if it asks, sensed, not
+        offered to the gate."""
         self.gate.reset()
         self.estimator.reset()
-        self.measurements = []
+        self._tare = Tare.of(self.sensor.sensor)
+        self.measurements: list[Measurement] = []
+        #: Every press judged this episode, in order.
+        self.presses: list[PressRecord] = []
         self._directions: list[np.ndarray] = []  # one representative per distinct direction
         self.span = 0.0
         self.estimate: AxisEstimate = self.estimator.estimate()
-        self.touch: Touch = self.sensor.sense(wrench, rotation, position)
+        #: Time of the last tare taken, s (the first sample's when there was none).
+        self.tare_time = float(sample.time)
+        self._last: Sample | None = None
+        wrench, tared, refused = self._compensate(sample)
+        self._last = sample
+        self.wrench = wrench
+        self.touch = self.sensor.sense(wrench, sample.rotation, sample.position)
+        return Perceived(wrench, self.touch, (), tared, refused, "")
 
-    def step(self, wrench: np.ndarray, rotation: np.ndarray, position: np.ndarray) -> int:
-        """Take one control step's reading; return how many measurements it added.
-
-        Args:
-            wrench: (6,) the F/T reading, sensor frame, N and N m.
-            rotation: (3, 3) the fingertip's rotation after the step, sensor to world.
-            position: (3,) the sensor origin after the step, world frame, m.
-        """
+    def step(self, sample: Sample) -> Perceived:
+        """Take one sample; return what it gave (module docstring)."""
+        fault = self._check(sample)
+        if fault in ("non_finite", "time_order"):
+            return Perceived(np.zeros(6), self.touch, (), False, False, fault)
+        self._last = sample
+        wrench, tared, refused = self._compensate(sample)
+        self.wrench = wrench
+        if sample.lift:
+            self.gate.end_touch()
+        rotation, position = sample.rotation, sample.position
         self.touch = self.sensor.sense(wrench, rotation, position)
+        refusals = self.gate.refusals
         offered = self.gate.offer(wrench, rotation, position, self.touch)
-        accepted = [m for m in offered if self.gate.same_edge(m, self.estimate)]
-        for m in accepted:
-            self.estimator.add(m.point, m.edge, m.point_std, m.edge_std, edge_cov=m.edge_cov)
-            self._count_direction(m.edge)
+        if self.gate.refusals > refusals:
+            self._record(sample.time, False)
+        accepted = []
+        for m in offered:
+            kept = self.gate.same_edge(m, self.estimate)
+            self._record(sample.time, kept)
+            if kept:
+                self.estimator.add(m.point, m.edge, m.point_std, m.edge_std, edge_cov=m.edge_cov)
+                self._count_direction(m.edge)
+                accepted.append(m)
         self.measurements.extend(accepted)
         if accepted:
             self.estimate = self.estimator.estimate()
-        return len(accepted)
+        return Perceived(wrench, self.touch, tuple(accepted), tared, refused, fault)
 
     @property
     def directions(self) -> int:
@@ -115,6 +242,64 @@ class MeasurementPipeline:
         """The last accepted measurement, or None."""
         return self.measurements[-1] if self.measurements else None
 
+    def tare_age(self, time: float) -> float:
+        """Time since the last tare at ``time``, s."""
+        return float(time) - self.tare_time
+
+    # ------------------------------------------------------------------ the steps
+    def _check(self, sample: Sample) -> str:
+        """The stream fault a sample shows (step 1), or ""; a fault spoils the touch."""
+        last, limits = self._last, self.limits
+        fault, why = "", ""
+        values = (sample.time, *np.ravel(sample.wrench), *np.ravel(sample.position))
+        if not (all(math.isfinite(v) for v in values) and np.isfinite(sample.rotation).all()):
+            fault, why = "non_finite", "a reading or a pose that is not finite"
+        elif last is not None:
+            gap = sample.time - last.time
+            if not gap > 0.0:
+                fault, why = "time_order", f"time {sample.time!r} s after {last.time!r} s"
+            elif gap > limits.max_gap * limits.period:
+                fault, why = "dropped_sample", f"{gap:.3g} s since the last sample"
+            else:
+                jump = norm(np.asarray(sample.position) - last.position)
+                turn = _angle_between(sample.rotation, last.rotation)
+                if jump > limits.max_speed * gap or turn > limits.max_angular_speed * gap:
+                    fault = "pose_jump"
+                    why = f"the pose moved {jump * 1e3:.2f} mm and {math.degrees(turn):.2f} deg"
+                    why += f" in {gap:.3g} s"
+        if fault:
+            refusals = self.gate.refusals
+            self.gate.interrupt(fault, why)
+            if self.gate.refusals > refusals:
+                self._record(sample.time, False)
+        return fault
+
+    def _compensate(self, sample: Sample) -> tuple[np.ndarray, bool, bool]:
+        """The tared, gravity-compensated reading (step 2), after a tare if one is asked for
+        and the reading does not say touching; and whether it was taken, or refused."""
+        reading = np.asarray(sample.wrench, dtype=float)
+        if sample.tared:
+            if sample.tare:
+                self.tare_time = float(sample.time)
+            return reading, sample.tare, False
+        rotation = (
+            sample.rotation if sample.commanded_rotation is None else sample.commanded_rotation
+        )
+        wrench = self._tare.compensate(reading, rotation)
+        if not sample.tare:
+            return wrench, False, False
+        if self._tare.taken and norm(wrench[:3]) >= TOUCH_FORCE:
+            # Only a tared reading can say touching: the first tare has nothing to go by.
+            return wrench, False, True
+        self._tare.take(reading, rotation)
+        self.tare_time = float(sample.time)
+        return self._tare.compensate(reading, rotation), True, False
+
+    def _record(self, time: float, accepted: bool) -> None:
+        gate = self.gate
+        rule, reason = ("", "") if accepted else (gate.last_rule, gate.last_rejection)
+        self.presses.append(PressRecord(float(time), accepted, rule, reason))
+
     def _count_direction(self, edge: np.ndarray) -> None:
         """Update the span and the distinct directions of the measured edges with one more."""
         if self._directions:
@@ -125,63 +310,9 @@ class MeasurementPipeline:
         self._directions.append(edge)
 
 
-def reset_distribution_prior(
-    families: tuple[str, ...],
-    scenario: ScenarioConfig,
-    geometry: FingertipGeometry,
-    randomize: bool,
-    object_overrides: dict,
-) -> tuple[AxisPrior, tuple[float, float]]:
-    """What is known before touching: the axis prior of a reset distribution, and the
-    distance of the probed edge from the axis (mean, std, m; ``MeasurementGate.same_edge``).
-
-    Drawn from ``PRIOR_SAMPLES`` scenarios (one without ``randomize``) of a fixed seed, never
-    from an episode. Every env made with the same families, ranges and overrides draws the
-    same scenarios, so the result is drawn once per process and shared (its arrays are
-    read-only): the draws are most of a ``gym.make``'s time.
-    """
-    return _drawn_prior(
-        tuple(families),
-        _frozen(dataclasses.asdict(scenario)),
-        geometry,
-        bool(randomize),
-        _frozen(object_overrides),
-    )
-
-
-@functools.lru_cache(maxsize=64)
-def _drawn_prior(
-    families: tuple[str, ...],
-    scenario: tuple,
-    geometry: FingertipGeometry,
-    randomize: bool,
-    object_overrides: tuple,
-) -> tuple[AxisPrior, tuple[float, float]]:
-    """``reset_distribution_prior`` of hashable (``_frozen``) arguments."""
-    scenario_config = ScenarioConfig(**dict(scenario))
-    rng = np.random.default_rng(0)
-    pins, directions, distances = [], [], []
-    for _ in range(PRIOR_SAMPLES if randomize else 1):
-        drawn = sample_scenario(
-            rng, families, scenario_config, geometry, randomize, dict(object_overrides)
-        )
-        config = drawn.object_config
-        pins.append(config.joint_position)
-        directions.append(config.axis)
-        origin, edge, _, _ = probed_edge(config, 0.0)
-        distances.append(
-            line_distance(origin, edge, np.asarray(config.joint_position), config.axis)
-        )
-    prior = AxisPrior.from_samples(np.array(pins), np.array(directions))
-    for array in (prior.pin, prior.pin_cov, prior.direction):
-        array.flags.writeable = False
-    return prior, (float(np.mean(distances)), float(np.std(distances)))
-
-
-def _frozen(value: Any) -> Any:
-    """A hashable copy of a config value: dicts as sorted item pairs, sequences as tuples."""
-    if isinstance(value, dict):
-        return tuple(sorted((key, _frozen(item)) for key, item in value.items()))
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return tuple(_frozen(item) for item in value)
-    return value
+def _angle_between(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle of the rotation from ``b`` to ``a``, rad (0 for equal matrices)."""
+    if (a == b).all():
+        return 0.0
+    cos = 0.5 * (float(np.trace(a @ b.T)) - 1.0)
+    return math.acos(min(max(cos, -1.0), 1.0))

@@ -434,6 +434,11 @@ class ProbeScene:
     # --- poses and ground truth ----------------------------------------------------------
 
     @property
+    def fingertip_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """(position, rotation): ``fingertip_position`` and ``fingertip_rotation``."""
+        return self.fingertip_position, self.fingertip_rotation
+
+    @property
     def fingertip_position(self) -> np.ndarray:
         """(3,) sensor origin, world frame, m."""
         return self._pose[3].copy()
