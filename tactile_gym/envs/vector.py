@@ -200,6 +200,12 @@ class _Block:
             raise indexed from error
 
 
+#: The commands a worker's messages name: the methods of its block.
+_COMMANDS = {
+    method.__name__: method for method in (_Block.reset, _Block.step, _Block.apply, _Block.set_attr)
+}
+
+
 def _join(parts: Sequence) -> Any:
     """The blocks' batches (arrays, or dicts of arrays) joined in block order."""
     if len(parts) == 1:
@@ -284,7 +290,7 @@ def _serve(conn, env_fn, kwargs, first, size, num_envs, autoreset_mode, cpu) -> 
         while (message := conn.recv())[0] != "close":
             method, args = message
             try:
-                reply = ("ok", getattr(block, method)(*args))
+                reply = ("ok", _COMMANDS[method](block, *args))
             except Exception as error:
                 reply = _error_reply(error)
             _send(conn, reply, method)
@@ -466,7 +472,7 @@ class HingeProbeVectorEnv(VectorEnv):
         seeds = self._seeds(seed)
         options = dict(options or {})
         mask = self._reset_mask(options.pop("reset_mask", None))
-        parts = self._run("reset", options or None, rows=(seeds, mask))
+        parts = self._run(_Block.reset, options or None, rows=(seeds, mask))
         self._started |= mask
         return _join([obs for obs, _ in parts]), _join_infos(
             [info for _, info in parts], self._sizes
@@ -480,7 +486,9 @@ class HingeProbeVectorEnv(VectorEnv):
         expected = (self.num_envs, *self.single_action_space.shape)
         if actions.shape != expected:
             raise ValueError(f"actions must have shape {expected}, got {actions.shape}")
-        obs, rewards, terminations, truncations, infos = zip(*self._run("step", rows=(actions,)))
+        obs, rewards, terminations, truncations, infos = zip(
+            *self._run(_Block.step, rows=(actions,))
+        )
         return (
             _join(obs),
             _join(rewards),
@@ -534,7 +542,7 @@ class HingeProbeVectorEnv(VectorEnv):
         indices = [check_int("indices", i, 0, self.num_envs - 1) for i in indices]
         mask = np.zeros(self.num_envs, dtype=bool)
         mask[indices] = True
-        results = self._each("apply", fn, rows=(mask,))
+        results = self._each(_Block.apply, fn, rows=(mask,))
         return tuple(results[i] for i in indices)
 
     def set_attr(self, name: str, values: Any) -> None:
@@ -546,7 +554,7 @@ class HingeProbeVectorEnv(VectorEnv):
             raise ValueError(
                 f"set_attr needs one value per sub-env ({self.num_envs}), got {len(values)}"
             )
-        self._each("set_attr", name, rows=(values,))
+        self._each(_Block.set_attr, name, rows=(values,))
 
     @property
     def np_random_seed(self) -> tuple[int | None, ...]:
@@ -593,25 +601,28 @@ class HingeProbeVectorEnv(VectorEnv):
             self.close()
             raise
 
-    def _run(self, method: str, *args: Any, rows: Sequence[Sequence] = ()) -> list:
-        """``_Block.<method>`` on every block, with each block's slice of ``rows`` (one row
-        per sub-env each) and then ``args``; the blocks' results, in order."""
+    def _run(self, method: Callable, *args: Any, rows: Sequence[Sequence] = ()) -> list:
+        """``method``, one of ``_Block``'s, on every block, with each block's slice of
+        ``rows`` (one row per sub-env each) and then ``args``; the blocks' results, in order.
+        In this process the block's method is called; a worker is sent its name, the one
+        command its messages carry."""
         if self.closed:
             raise RuntimeError("this vector env is closed")
         if self._local is not None:
-            return [getattr(self._local, method)(*rows, *args)]
+            return [method(self._local, *rows, *args)]
+        name = method.__name__
         messages = []
         for worker in self._workers:
             block_rows = [row[worker.first : worker.first + worker.size] for row in rows]
             try:
-                messages.append(pickle.dumps((method, (*block_rows, *args))))
+                messages.append(pickle.dumps((name, (*block_rows, *args))))
             except Exception as error:
                 raise TypeError(
-                    f"the arguments of {method} must pickle to reach the worker processes: {error}"
+                    f"the arguments of {name} must pickle to reach the worker processes: {error}"
                 ) from error
         return self._exchange(messages)
 
-    def _each(self, method: str, *args: Any, rows: Sequence[Sequence] = ()) -> tuple:
+    def _each(self, method: Callable, *args: Any, rows: Sequence[Sequence] = ()) -> tuple:
         """``_run`` of a method that gives one result per sub-env: the results, in order."""
         return tuple(result for part in self._run(method, *args, rows=rows) for result in part)
 
