@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_gym.envs.plotting import add_legend, draw_estimate, draw_measurements
+from tactile_gym.plotting import add_legend, draw_estimate, draw_measurements
 
 __all__ = ["PAPER_TABLE", "markdown_table", "plot"]
 

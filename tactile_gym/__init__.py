@@ -8,8 +8,10 @@ Importing the package registers its environments with Gymnasium::
     env = gym.make("tactile_gym/HingeProbe-v2")
     envs = gym.make_vec("tactile_gym/HingeProbe-v2", num_envs=4)  # N scenes, one process
 
-``tactile_gym.sensing`` and ``tactile_gym.estimation`` import without pybullet; the
-environment modules are only imported when an env is made.
+``tactile_gym.sensing``, ``tactile_gym.estimation``, ``tactile_gym.perception`` and
+``tactile_gym.replay`` import without pybullet, and without Gymnasium (a robot's perception
+needs neither: the ids are then not registered); the environment modules are only imported
+when an env is made.
 
 The v2 ids are the current ones: a realistic F/T sensor (offset, drift, the fingertip's weight)
 and taring. The v1 ids (``LEGACY_ENV_IDS``: the ideal sensor, a 6-D action, no tare) stay
@@ -17,8 +19,6 @@ registered unchanged, so that models trained on them still run. The v0 ids are r
 skin model gave no edge direction from a pure press and their start pose revealed the edge
 (``docs/design.md``, "Versions").
 """
-
-from gymnasium.envs.registration import register
 
 __version__ = "0.3.0"
 
@@ -62,7 +62,11 @@ PRIMITIVE_ENV_IDS: tuple[str, ...] = tuple(
     if entries is _PRIMITIVE
 )
 
-for _version, _extra in (("v2", {}), ("v1", _V1)):
+try:
+    from gymnasium.envs.registration import register
+except ImportError:  # perception alone, on a robot without Gymnasium: nothing to register
+    register = None
+for _version, _extra in (("v2", {}), ("v1", _V1)) if register else ():
     for _name, (_entry, _vector_entry), _kwargs in _TASKS:
         register(
             id=f"tactile_gym/{_name}-{_version}",

@@ -232,7 +232,7 @@ def test_env_starts_from_its_prior():
 def test_plot_top_view(tmp_path):
     matplotlib = pytest.importorskip("matplotlib")
     matplotlib.use("Agg")
-    from tactile_gym.envs.plotting import LABELS, plot_top_view
+    from tactile_gym.plotting import LABELS, plot_top_view
 
     env = gym.make("tactile_gym/HingeProbe-v2", max_steps=120)
     policy = scripted_policy(env)

@@ -24,8 +24,9 @@ from tactile_gym.envs.scenarios import (
     sample_scenario,
 )
 from tactile_gym.envs.task import TaskConfig
-from tactile_gym.estimation import LOSSES, JointAxisEstimator
+from tactile_gym.estimation import LOSSES, AxisPrior, JointAxisEstimator
 from tactile_gym.perception import GateConfig, MeasurementPipeline, StreamLimits
+from tactile_gym.perception.log import LogHeader
 from tactile_gym.sensing import SENSOR_MODELS, FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, SkinConfig
 from tactile_gym.sim.scene import FORCE_LIMIT
@@ -180,13 +181,17 @@ class HingeProbeConfig:
             rng, self.families, self.scenario_config, geometry, self.randomize, self.object
         )
 
-    def pipeline(self, geometry: FingertipGeometry) -> MeasurementPipeline:
-        """The measurement pipeline of an env: its sensor, skin, gate and estimator, handed
-        what is known before touching (the reset distribution's prior and probed-edge
-        distance, ``reset_distribution_prior``)."""
-        prior, edge_distance = reset_distribution_prior(
+    def prior(self, geometry: FingertipGeometry) -> tuple[AxisPrior, tuple[float, float]]:
+        """What is known before touching: the reset distribution's axis prior and probed-edge
+        distance (``reset_distribution_prior``)."""
+        return reset_distribution_prior(
             self.families, self.scenario_config, geometry, self.randomize, self.object
         )
+
+    def pipeline(self, geometry: FingertipGeometry) -> MeasurementPipeline:
+        """The measurement pipeline of an env: its sensor, skin, gate and estimator, handed
+        what is known before touching (``prior``)."""
+        prior, edge_distance = self.prior(geometry)
         return MeasurementPipeline(
             geometry,
             self.sensor_config,
@@ -195,6 +200,27 @@ class HingeProbeConfig:
             JointAxisEstimator(mode=self.estimator, loss=self.estimator_loss, prior=prior),
             edge_distance,
             StreamLimits(period=self.time_step * self.substeps),
+        )
+
+    def log_header(self, geometry: FingertipGeometry, source: str = "") -> LogHeader:
+        """The header of this env's logs (``tactile_gym.perception.log``): what its pipeline
+        is built from, so that a replay builds the same one."""
+        prior, edge_distance = self.prior(geometry)
+        return LogHeader(
+            period=self.time_step * self.substeps,
+            skin_stiffness=self.skin_config.normal_stiffness,
+            fingertip=dataclasses.asdict(geometry),
+            sensor=dataclasses.asdict(self.sensor_config),
+            gate=dataclasses.asdict(self.gate_config),
+            estimator={"mode": self.estimator, "loss": self.estimator_loss},
+            prior={
+                "pin": prior.pin.tolist(),
+                "pin_cov": prior.pin_cov.tolist(),
+                "direction": prior.direction.tolist(),
+                "angle_std": prior.angle_std,
+            },
+            edge_distance=edge_distance,
+            source=source,
         )
 
     @classmethod

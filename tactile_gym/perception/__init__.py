@@ -21,6 +21,7 @@ from tactile_gym.perception.pipeline import (
     PressRecord,
     Sample,
     StreamLimits,
+    TareRecord,
 )
 
 __all__ = [
@@ -35,4 +36,5 @@ __all__ = [
     "PressRecord",
     "Sample",
     "StreamLimits",
+    "TareRecord",
 ]

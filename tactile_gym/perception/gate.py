@@ -479,10 +479,13 @@ class MeasurementGate:
         cov = touch.edge_cov + bias * bias * np.outer(turn, turn) / (turn @ turn)
         return self._accept(touch.point, touch.edge, cov)
 
-    def same_edge(self, m: Measurement, estimate: AxisEstimate) -> bool:
+    def same_edge(self, m: Measurement, estimate: AxisEstimate | None) -> bool:
         """Whether a measurement may enter the fit: its contact is clear of the hinge, and its
         edge line lies at the expected distance (``edge_distance``: mean, std, m; unchecked
-        when None) from the estimated axis (module docstring)."""
+        when None) from the estimated axis (module docstring). Without an estimate yet (an
+        estimator without a prior) there is nothing to test against: it may."""
+        if estimate is None:
+            return True
         radius = estimate.distance_to(m.point)
         if radius < self.config.min_hinge_distance + estimate.position_std:
             self._reject(

@@ -40,6 +40,7 @@ import numpy as np
 from tactile_gym.estimation import AxisEstimate
 from tactile_gym.perception.gate import GateConfig, Measurement, MeasurementGate
 from tactile_gym.sensing import (
+    TARE_SAMPLES,
     TOUCH_FORCE,
     FingertipGeometry,
     SensorConfig,
@@ -57,12 +58,16 @@ __all__ = [
     "PressRecord",
     "Sample",
     "StreamLimits",
+    "TareRecord",
 ]
 
 #: Edge directions closer than this count as one link angle in the progress, rad.
 DISTINCT_ANGLE = float(np.deg2rad(3.0))
 #: The faults of a stream that refuse the press they interrupt (the pipeline's step 1).
-STREAM_FAULTS = ("non_finite", "time_order", "dropped_sample", "pose_jump")
+STREAM_FAULTS = ("non_finite", "time_order", "repeated_time", "dropped_sample", "pose_jump")
+#: A tare's offset may differ from the last tare's by this many standard deviations of what
+#: the drift and the two tares' noise allow before it is flagged (``TareRecord``).
+TARE_JUMP_SIGMAS = 5.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -149,6 +154,27 @@ class PressRecord:
     reason: str
 
 
+@dataclass(frozen=True)
+class TareRecord:
+    """A tare taken, and how far its offset moved from the last tare's.
+
+    Attributes:
+        time: s.
+        jump: |change of the force offset| since the last tare, N: the tare readings less the
+            fingertip's weight at their rotations, which only the sensor's drift should move
+            (0 for the first tare).
+        allowed: what the drift over the time between the tares and the two tares' noise allow
+            at ``TARE_JUMP_SIGMAS``, N.
+        flagged: ``jump > allowed``: most likely a tare taken while something touched the skin
+            (a robot cannot see it either: ``docs/design.md`` 5.1).
+    """
+
+    time: float
+    jump: float
+    allowed: float
+    flagged: bool
+
+
 class MeasurementPipeline:
     """Turns a stream of samples into measurements and an axis estimate (module docstring).
 
@@ -181,6 +207,8 @@ class MeasurementPipeline:
         self.estimator = estimator
         self.limits = limits
         self._tare = Tare.of(sensor)
+        #: Called with every sample the pipeline takes, reset's included (a log's recorder).
+        self.recorder = None
 
     def reset(self, sample: Sample) -> Perceived:
         """Start an episode (a log) from its first sample: tared if it asks, sensed, not
@@ -191,12 +219,16 @@ class MeasurementPipeline:
         self.measurements: list[Measurement] = []
         #: Every press judged this episode, in order.
         self.presses: list[PressRecord] = []
+        #: Every tare taken this episode, in order.
+        self.tares: list[TareRecord] = []
         self._directions: list[np.ndarray] = []  # one representative per distinct direction
         self.span = 0.0
         self.estimate: AxisEstimate = self.estimator.estimate()
         #: Time of the last tare taken, s (the first sample's when there was none).
         self.tare_time = float(sample.time)
         self._last: Sample | None = None
+        if self.recorder is not None:
+            self.recorder(sample)
         wrench, tared, refused = self._compensate(sample)
         self._last = sample
         self.wrench = wrench
@@ -205,8 +237,10 @@ class MeasurementPipeline:
 
     def step(self, sample: Sample) -> Perceived:
         """Take one sample; return what it gave (module docstring)."""
+        if self.recorder is not None:
+            self.recorder(sample)
         fault = self._check(sample)
-        if fault in ("non_finite", "time_order"):
+        if fault in ("non_finite", "time_order", "repeated_time"):
             return Perceived(np.zeros(6), self.touch, (), False, False, fault)
         self._last = sample
         wrench, tared, refused = self._compensate(sample)
@@ -256,8 +290,10 @@ class MeasurementPipeline:
             fault, why = "non_finite", "a reading or a pose that is not finite"
         elif last is not None:
             gap = sample.time - last.time
-            if not gap > 0.0:
+            if gap < 0.0:
                 fault, why = "time_order", f"time {sample.time!r} s after {last.time!r} s"
+            elif gap == 0.0:
+                fault, why = "repeated_time", f"a second sample at {sample.time!r} s"
             elif gap > limits.max_gap * limits.period:
                 fault, why = "dropped_sample", f"{gap:.3g} s since the last sample"
             else:
@@ -291,9 +327,23 @@ class MeasurementPipeline:
         if self._tare.taken and norm(wrench[:3]) >= TOUCH_FORCE:
             # Only a tared reading can say touching: the first tare has nothing to go by.
             return wrench, False, True
+        before = self._tare.reading - self._tare.load if self._tare.taken else None
         self._tare.take(reading, rotation)
+        self._record_tare(float(sample.time), before)
         self.tare_time = float(sample.time)
         return self._tare.compensate(reading, rotation), True, False
+
+    def _record_tare(self, time: float, before: np.ndarray | None) -> None:
+        """Record a tare and how far its force offset moved from the last one's."""
+        if before is None:
+            self.tares.append(TareRecord(time, 0.0, math.inf, False))
+            return
+        sensor = self.sensor.sensor
+        jump = norm((self._tare.reading - self._tare.load)[:3] - before[:3])
+        drift = sensor.force_drift**2 * (time - self.tare_time)
+        noise = 2.0 * sensor.force_noise_std**2 / TARE_SAMPLES
+        allowed = TARE_JUMP_SIGMAS * math.sqrt(3.0 * (drift + noise))
+        self.tares.append(TareRecord(time, jump, allowed, jump > allowed))
 
     def _record(self, time: float, accepted: bool) -> None:
         gate = self.gate
