@@ -4,14 +4,15 @@
 #   make test   # ruff check . && ruff format --check . && python -m pytest
 #
 # Both set up what they need first, once: a virtualenv in .venv, the CPU build of torch (else
-# pip fetches a multi-GB CUDA build), and the package, editable, with its [train,test] extras.
+# pip fetches a multi-GB CUDA build), and the package, editable, with its [train,test,clients]
+# extras.
 # The set-up is redone only when pyproject.toml changes (a stamp file in .venv), so a second
 # run starts at once. `make setup` does the set-up alone; `make run ARGS="--trials 30"` passes
 # arguments to the main command; `make clean` removes .venv.
 
 PYTHON ?= python3
 VENV ?= .venv
-EXTRAS ?= train,test
+EXTRAS ?= train,test,clients
 ARGS ?=
 comma := ,
 TORCH := torch==2.13.0
