@@ -35,7 +35,7 @@ def facts(**kw) -> StepFacts:
 
 def test_return_telescopes_from_the_prior_error():
     task = AxisEstimationTask(TaskConfig())
-    task.initialize_episode(0.008, np.deg2rad(1.0))
+    task.initialize_episode(facts(position_error=0.008, angle_error=np.deg2rad(1.0)))
     e0 = 0.008 + 0.05 * np.deg2rad(1.0)
     errors = [(0.02, 0.3), (np.inf, np.pi / 2), (0.004, 0.01), (0.001, 0.002)]
     total = sum(reward_of(task, facts(position_error=p, angle_error=a))[0] for p, a in errors)
@@ -46,14 +46,14 @@ def test_return_telescopes_from_the_prior_error():
 def test_a_worse_first_estimate_costs_reward():
     """No jump: an estimate worse than the prior earns a negative reward."""
     task = AxisEstimationTask(TaskConfig())
-    task.initialize_episode(0.006, 0.0)
+    task.initialize_episode(facts(position_error=0.006, angle_error=0.0))
     reward, terms = reward_of(task, facts(position_error=0.05))
     assert reward < 0 and terms["reward_error_reduction"] == pytest.approx(-4.4)
 
 
 def test_reward_is_the_sum_of_its_terms_and_penalties_bite():
     task = AxisEstimationTask(TaskConfig())
-    task.initialize_episode(0.01, 0.0)
+    task.initialize_episode(facts(position_error=0.01, angle_error=0.0))
     reward, terms = reward_of(task, facts(max_force=12.0, action=np.ones(6)))
     assert tuple(terms) == REWARD_TERMS  # the names the primitive ids sum over a primitive
     assert reward == pytest.approx(sum(terms.values()))
@@ -92,7 +92,7 @@ def test_a_failing_step_pays_the_termination_penalty(reason):
         "overloaded": {"max_force": 31.0},
     }[reason]
     task = AxisEstimationTask(TaskConfig(termination_penalty=0.5))
-    task.initialize_episode(0.01, 0.0)
+    task.initialize_episode(facts(position_error=0.01, angle_error=0.0))
     reward, terms = reward_of(task, facts(**kw))
     assert terms["reward_termination"] == -0.5
     assert reward == pytest.approx(sum(terms.values()))
@@ -101,7 +101,7 @@ def test_a_failing_step_pays_the_termination_penalty(reason):
 
 def test_the_termination_penalty_is_off_by_default_and_validated():
     task = AxisEstimationTask(TaskConfig())
-    task.initialize_episode(0.01, 0.0)
+    task.initialize_episode(facts(position_error=0.01, angle_error=0.0))
     assert reward_of(task, facts(shell_contact=True))[1]["reward_termination"] == 0.0
     with pytest.raises(ValueError, match="termination_penalty"):
         TaskConfig(termination_penalty=-0.1)
@@ -114,7 +114,7 @@ def test_prior_error_scores_the_prior_by_a_fixed_error():
     returns = {}
     for prior_error in (None, 0.01):
         task = AxisEstimationTask(TaskConfig(prior_error=prior_error))
-        task.initialize_episode(0.012, 0.0)
+        task.initialize_episode(facts(position_error=0.012, angle_error=0.0, measurements=0))
         rewards = [reward_of(task, facts(position_error=p, measurements=m))[0] for p, m in errors]
         returns[prior_error] = sum(rewards)
         if prior_error is not None:
@@ -127,3 +127,28 @@ def test_prior_error_scores_the_prior_by_a_fixed_error():
 def test_prior_error_is_validated(value):
     with pytest.raises(ValueError, match="prior_error"):
         TaskConfig(prior_error=value)
+
+
+def test_the_predicted_reward_scores_the_estimators_own_uncertainty_not_the_truth():
+    """reward_source='predicted': the return telescopes to (U_0 - U_T) / E_scale, with
+    U = position std + L * angle std, and no true error moves it."""
+    task = AxisEstimationTask(TaskConfig(reward_source="predicted"))
+    stds = [(0.008, 0.05), (0.004, 0.02), (0.006, 0.03), (0.002, 0.01)]
+    returns = []
+    for truth in (0.001, 0.05):  # two very different true errors, the same predictions
+        task.initialize_episode(facts(position_error=truth, position_std=0.01, angle_std=0.1))
+        total = 0.0
+        for k, (p, a) in enumerate(stds):
+            step = facts(position_error=truth * (k + 2), position_std=p, angle_std=a)
+            total += reward_of(task, step)[1]["reward_error_reduction"]
+        returns.append(total)
+    u_0, u_t = 0.01 + 0.05 * 0.1, 0.002 + 0.05 * 0.01
+    assert returns[0] == returns[1] == pytest.approx((u_0 - u_t) / 0.01)
+    info = task.info(facts(position_std=0.002, angle_std=0.01))
+    assert info["predicted_error"] == pytest.approx(u_t)
+    assert info["position_error"] == 0.01  # the truth stays in info, for evaluation
+
+
+def test_the_reward_source_is_validated():
+    with pytest.raises(ValueError, match="reward_source"):
+        TaskConfig(reward_source="oracle")

@@ -281,9 +281,9 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
         perceived = self.pipeline.reset(self._sample(None, cfg.tare_action))
         self._guard.begin()
         self._errors_of = None  # a new episode's truth: no errors computed for it yet
-        position_error, angle_error = self._true_errors()
-        self.task.initialize_episode(position_error, angle_error)
-        return self._observation(), self._true_info(perceived)
+        facts = self._true_facts(None, np.zeros(6))
+        self.task.initialize_episode(facts)
+        return self._observation(), self._true_info(perceived, facts)
 
     def step(self, action):
         action = self._guard.check(action)
@@ -387,18 +387,22 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
         return self._errors
 
     def _true_facts(self, step_info, action: np.ndarray) -> StepFacts:
-        """What the task judges a step by (``StepFacts``), from the truth and the step."""
+        """What the task judges a step by (``StepFacts``), from the truth and the step (None:
+        the reset, no step)."""
         position_error, angle_error = self._true_errors()
         pin, _ = self._scene.true_axis
+        estimate = self.pipeline.estimate
         return StepFacts(
             position_error=position_error,
             angle_error=angle_error,
-            max_force=float(step_info.max_force),
+            max_force=0.0 if step_info is None else float(step_info.max_force),
             force_limit=float(self._scene.force_limit),
-            shell_contact=bool(step_info.shell_contact),
+            shell_contact=step_info is not None and bool(step_info.shell_contact),
             hinge_distance=norm(self._scene.fingertip_position - pin),
             action=action,
             measurements=len(self.pipeline.measurements),
+            position_std=estimate.position_std,
+            angle_std=estimate.angle_std,
         )
 
     def _true_axis_for_render(self) -> tuple[np.ndarray, np.ndarray]:
@@ -409,22 +413,22 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
     def _true_info(
         self,
         perceived: Perceived,
-        facts: StepFacts | None = None,
+        facts: StepFacts,
         force_limited: bool = False,
         terms: dict[str, float] | None = None,
         reasons: dict[str, bool] | None = None,
     ) -> dict[str, Any]:
-        """The ``info`` of a reset (no step facts: the step's entries 0 or False) or a step,
-        flat and numeric (class docstring, Episode End)."""
+        """The ``info`` of a reset (no terms nor reasons: the step's entries 0 or False) or a
+        step, flat and numeric (class docstring, Episode End)."""
         point, direction = self._scene.true_axis
         info = {
-            **self.task.info(*self._true_errors(), terms, reasons),
+            **self.task.info(facts, terms, reasons),
             "n_measurements": np.int64(len(self.pipeline.measurements)),
             "new_measurements": np.int64(len(perceived.accepted)),
             "true_axis_point": point,  # the scene's copies
             "true_axis_direction": direction,
             "joint_angle": np.float64(self._scene.joint_angle),
-            "max_force": np.float64(0.0 if facts is None else facts.max_force),
+            "max_force": np.float64(facts.max_force),
             "force_limited": np.bool_(force_limited),
         }
         if self.config.tare_action:

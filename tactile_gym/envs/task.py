@@ -23,6 +23,13 @@ a constant of the episode that no action changes and no observation shows, so th
 policy is the same; but the return then varies with the final error alone, not with the
 prior's error, which dominates the default return's spread (``docs/design.md`` 12). It is a
 training option: the ids' default stays the prior's true error.
+
+``reward_source="predicted"`` scores the estimator's own predicted error instead of the true
+one: ``U = min(position_std + L * angle_std, E_max)``, from the uncertainty the estimate states
+(``AxisEstimate.position_std``, ``angle_std``), with the prior's as ``U_0``. A robot can
+compute it, so a policy can be trained or fine-tuned on hardware; it is honest only as far as
+the predicted uncertainty is calibrated (``docs/design.md`` 6, 7.4). ``info`` keeps the true
+errors for evaluation, and ``predicted_error`` (U) under either source.
 """
 
 from __future__ import annotations
@@ -31,9 +38,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile_gym.validation import check_number
+from tactile_gym.validation import check_choice, check_number
 
-__all__ = ["AxisEstimationTask", "REWARD_TERMS", "StepFacts", "TaskConfig", "TERMINATION_REASONS"]
+__all__ = [
+    "AxisEstimationTask",
+    "REWARD_SOURCES",
+    "REWARD_TERMS",
+    "StepFacts",
+    "TaskConfig",
+    "TERMINATION_REASONS",
+]
 
 #: The terms of a step's reward, as named in ``info``; they sum to the reward.
 REWARD_TERMS = (
@@ -42,6 +56,9 @@ REWARD_TERMS = (
     "reward_action_cost",
     "reward_termination",
 )
+
+#: What the reward's error reduction can score (``TaskConfig.reward_source``).
+REWARD_SOURCES = ("truth", "predicted")
 
 #: Why an episode can end as a failure, in the order they are checked.
 TERMINATION_REASONS = ("left_workspace", "shell_contact", "overloaded")
@@ -66,6 +83,8 @@ class TaskConfig:
             (``TERMINATION_REASONS``), in units of reward (1 = ``error_scale`` of error).
         prior_error: the error E counts as while no measurement has entered the estimate,
             m; None: the prior's true error (module docstring).
+        reward_source: what the error reduction scores: ``"truth"``, the true error E, or
+            ``"predicted"``, the estimator's predicted error U (module docstring).
     """
 
     error_angle_scale: float = 0.05
@@ -79,6 +98,7 @@ class TaskConfig:
     workspace_radius: float = 0.25
     termination_penalty: float = 0.0
     prior_error: float | None = None
+    reward_source: str = "truth"
 
     def __post_init__(self) -> None:
         check_number("task.error_angle_scale", self.error_angle_scale, 0.0, 1.0)
@@ -93,6 +113,7 @@ class TaskConfig:
         check_number("task.termination_penalty", self.termination_penalty, 0.0, 100.0)
         if self.prior_error is not None:
             check_number("task.prior_error", self.prior_error, 0.0, self.error_cap, low_open=True)
+        check_choice("task.reward_source", self.reward_source, REWARD_SOURCES)
 
 
 @dataclass(frozen=True)
@@ -108,6 +129,8 @@ class StepFacts:
         hinge_distance: distance of the fingertip's sensor origin from the hinge pin, m.
         action: the normalised action.
         measurements: measurements in the estimate (0: it is the prior).
+        position_std: the estimate's predicted position error (1 sigma), m.
+        angle_std: its predicted angle error (1 sigma), rad.
     """
 
     position_error: float
@@ -118,6 +141,8 @@ class StepFacts:
     hinge_distance: float
     action: np.ndarray
     measurements: int
+    position_std: float = float("inf")
+    angle_std: float = float("inf")
 
 
 class AxisEstimationTask:
@@ -134,22 +159,25 @@ class AxisEstimationTask:
             return self.config.error_cap
         return float(min(error, self.config.error_cap))
 
-    def initialize_episode(self, position_error: float, angle_error: float) -> None:
-        """Start an episode from the errors of the estimate at reset (the prior's), or from
-        ``prior_error`` when it is set."""
-        if self.config.prior_error is not None:
-            self._previous_error = self.config.prior_error
-        else:
-            self._previous_error = self.combined_error(position_error, angle_error)
+    def scored_error(self, facts: StepFacts) -> float:
+        """The error the reward scores (``reward_source``): E, or U; ``prior_error`` while no
+        measurement has entered the estimate, when it is set."""
+        cfg = self.config
+        if cfg.prior_error is not None and facts.measurements == 0:
+            return cfg.prior_error
+        if cfg.reward_source == "predicted":
+            return self.combined_error(facts.position_std, facts.angle_std)
+        return self.combined_error(facts.position_error, facts.angle_error)
+
+    def initialize_episode(self, facts: StepFacts) -> None:
+        """Start an episode from the estimate at reset (the prior): its scored error."""
+        self._previous_error = self.scored_error(facts)
 
     def get_reward(self, facts: StepFacts, terminated: bool) -> tuple[float, dict[str, float]]:
         """Reward for one step and its terms, which sum to the reward; a step that fails
         (``terminated``, from :meth:`get_termination`) pays the termination penalty."""
         cfg = self.config
-        if cfg.prior_error is not None and facts.measurements == 0:
-            error = cfg.prior_error
-        else:
-            error = self.combined_error(facts.position_error, facts.angle_error)
+        error = self.scored_error(facts)
         error_reduction = (self._previous_error - error) / cfg.error_scale
         self._previous_error = error
         excess = max(facts.max_force - facts.force_limit, 0.0) / facts.force_limit
@@ -173,19 +201,19 @@ class AxisEstimationTask:
 
     def info(
         self,
-        position_error: float,
-        angle_error: float,
+        facts: StepFacts,
         terms: dict[str, float] | None = None,
         reasons: dict[str, bool] | None = None,
     ) -> dict[str, np.generic]:
-        """The task's entries of a step's ``info``, NumPy scalars: success, the errors, each
-        reward term (``REWARD_TERMS``) and a ``termination_<reason>`` flag per reason
-        (``TERMINATION_REASONS``); without a step (a reset) the terms are 0 and the flags
-        False."""
+        """The task's entries of a step's ``info``, NumPy scalars: success, the true errors,
+        the predicted error U, each reward term (``REWARD_TERMS``) and a
+        ``termination_<reason>`` flag per reason (``TERMINATION_REASONS``); without a step (a
+        reset) the terms are 0 and the flags False."""
         info = {
-            "is_success": np.bool_(self.is_success(position_error, angle_error)),
-            "position_error": np.float64(position_error),
-            "angle_error": np.float64(angle_error),
+            "is_success": np.bool_(self.is_success(facts.position_error, facts.angle_error)),
+            "position_error": np.float64(facts.position_error),
+            "angle_error": np.float64(facts.angle_error),
+            "predicted_error": np.float64(self.combined_error(facts.position_std, facts.angle_std)),
         }
         for term in REWARD_TERMS:
             info[term] = np.float64(0.0 if terms is None else terms[term])
