@@ -118,8 +118,8 @@ def test_the_manual_steps_do_what_the_makefile_does():
     torch = re.search(r"^TORCH := (\S+)", makefile, re.MULTILINE).group(1)
     index = re.search(r"^TORCH_CPU_INDEX := (\S+)", makefile, re.MULTILINE).group(1)
     assert f"pip install {torch} --index-url {index}" in manual
-    assert re.search(r"^EXTRAS \?= (\S+)", makefile, re.MULTILINE).group(1) == "train,test"
-    assert 'pip install -e ".[train,test]"' in manual
+    assert re.search(r"^EXTRAS \?= (\S+)", makefile, re.MULTILINE).group(1) == "train,test,clients"
+    assert 'pip install -e ".[train,test,clients]"' in manual
     for command in ("python -m agents.reproduce_paper", "ruff check . && ruff format --check ."):
         assert any(command in line for line in manual), command
         assert command in makefile, command
