@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 import tactile_gym
-from agents import aggregate, cli, evaluate, reproduce_paper, sweep, train
+from agents import aggregate, cli, evaluate, policies, reproduce_paper, runs, sweep, train
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "models" / "ppo_HingeProbePrimitive-v1_s2" / "best_model.zip"
@@ -138,11 +138,11 @@ def test_a_model_on_another_id_is_refused_naming_both(capsys, tmp_path):
     argv = ["--policies", str(MODEL), "--env", PRIMITIVE_3D, "--out", str(tmp_path)]
     _usage_error(capsys, evaluate.main, argv, PRIMITIVE, PRIMITIVE_3D, "--force")
     # --force lets it through (with a warning), and its own id and 6-D id need no force.
-    specs = evaluate.resolve_policies([str(MODEL)], PRIMITIVE_3D, force=True)
+    specs = policies.resolve_policies([str(MODEL)], PRIMITIVE_3D, force=True)
     assert specs[0].env_id == PRIMITIVE_3D
     assert "trained on" in capsys.readouterr().err
     for env_id in (PRIMITIVE, "tactile_gym/HingeProbe-v1"):
-        evaluate.resolve_policies([str(MODEL)], env_id)
+        policies.resolve_policies([str(MODEL)], env_id)
 
 
 def test_a_model_outside_its_run_folder_is_checked_by_its_spaces(capsys, tmp_path):
@@ -153,21 +153,23 @@ def test_a_model_outside_its_run_folder_is_checked_by_its_spaces(capsys, tmp_pat
 
 
 def test_the_algorithm_comes_from_the_models_zip(tmp_path):
-    assert evaluate.saved_algo(MODEL) == "ppo"
-    sac = tmp_path / "sac.zip"
-    with zipfile.ZipFile(sac, "w") as archive:
-        policy = {"__module__": "stable_baselines3.sac.policies"}
-        archive.writestr("data", json.dumps({"policy_class": policy}))
-    assert evaluate.saved_algo(sac) == "sac"
-    assert evaluate.model_run(sac)["algo"] == "sac"  # no run config beside it
-    other = tmp_path / "dqn.zip"
-    with zipfile.ZipFile(other, "w") as archive:
-        archive.writestr("data", json.dumps({"policy_class": {"__module__": "sb3.dqn"}}))
+    assert runs.saved_algo(MODEL) == "ppo"
+
+    def model_zip(name: str, module: str):
+        with zipfile.ZipFile(tmp_path / name, "w") as archive:
+            archive.writestr("data", json.dumps({"policy_class": {"__module__": module}}))
+            archive.writestr("policy.pth", b"")
+        return tmp_path / name
+
+    sac = model_zip("sac.zip", "stable_baselines3.sac.policies")
+    assert runs.saved_algo(sac) == "sac"
+    assert runs.model_run(sac).algo == "sac"  # no run config beside it
+    assert runs.saved_algo(model_zip("td3.zip", "stable_baselines3.td3.policies")) == "td3"
     with pytest.raises(ValueError, match="PPO and SAC"):
-        evaluate.saved_algo(other)
+        runs.saved_algo(model_zip("other.zip", "sb3.dqn"))
     (tmp_path / "junk.zip").write_text("not a zip")
-    with pytest.raises(ValueError, match="not a stable-baselines3 model"):
-        evaluate.saved_algo(tmp_path / "junk.zip")
+    with pytest.raises(ValueError, match="damaged or not a zip"):
+        runs.saved_algo(tmp_path / "junk.zip")
 
 
 # --------------------------------------------------------------- help (issue 19, item 5)
