@@ -101,6 +101,7 @@ class PrimitiveModelPolicy:
 
     def __init__(self, path: str | Path, env: gym.Env, trust_pickle: bool = False) -> None:
         run = model_run(Path(path))
+        check_env_id(f"the env_id of {path}'s run", run.env_id)
         primitive_env = make_env(run.env_id, **run.env_kwargs)
         try:
             self.inner = ModelPolicy(path, primitive_env, trust_pickle)

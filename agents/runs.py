@@ -35,6 +35,7 @@ wrong shape or missing) is a ``ValueError`` in one line, which the commands prin
 
 from __future__ import annotations
 
+import inspect
 import json
 import pickle
 import re
@@ -395,8 +396,6 @@ def _rebuilt_objects(saved: SavedModel, data: dict, cls: type, env) -> dict[str,
         ValueError: an entry the package cannot rebuild, or a policy class other than the
             one the run config (or the observation space) says.
     """
-    import inspect
-
     config = saved.hyperparameters
     given = algo_kwargs(config) if config else {}
     defaults = {
@@ -585,6 +584,8 @@ def read_statistics(path: str | Path, venv, training: bool = False):
                 raise ValueError(f"their keys {unknown} are not the env's {sorted(space.spaces)}")
             expected = {key: space.spaces[key].shape for key in keys}
         else:
+            if settings["norm_obs"] and (not isinstance(obs_rms, dict) or "mean" not in obs_rms):
+                raise ValueError("they are for a Dict of arrays, the env observes one array")
             expected = {None: space.shape}
             obs_rms = {None: obs_rms} if settings["norm_obs"] else {}
         vec_normalize = VecNormalize(
