@@ -126,6 +126,21 @@ def test_a_missing_ray_names_both_installs(capsys, tmp_path, monkeypatch):
     assert 'pip install "tactile-gym[train,sweep]"' in message  # the wheel
 
 
+def test_a_missing_yaml_space_after_a_colon_is_named(capsys):
+    """``skin:{friction:0.3}`` is YAML for the key "friction:0.3" with no value: the error says
+    what was meant, not "unknown skin field"."""
+    with pytest.raises(SystemExit) as exit_info:
+        train.main(["--env-kwargs", "skin:{friction:0.3}"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "'friction:0.3' as one key with no value" in err
+    assert "YAML needs a space after a colon, as in 'skin:{friction: 0.3}'" in err
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--env-kwargs", nargs="+", action=cli.KeyValue)
+    args = parser.parse_args(["--env-kwargs", "skin:{friction: 0.3}", "max_steps:10"])
+    assert args.env_kwargs == {"skin": {"friction": 0.3}, "max_steps": 10}
+
+
 def test_key_value_arguments_explain_a_bad_pair(capsys):
     with pytest.raises(SystemExit) as exit_info:
         train.main(["--env-kwargs", "max_steps=10"])
@@ -215,16 +230,32 @@ def test_a_closed_pipe_ends_quietly():
     assert process.returncode == 0
 
 
-def test_pybullets_start_up_lines_are_kept_out(tmp_path):
-    command = [
-        sys.executable, "-m", "agents.evaluate", "--policies", "random", "--episodes", "1",
-        "--env-kwargs", "max_steps:3", "--no-plot", "--out", str(tmp_path),
-    ]  # fmt: skip
-    result = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["agents.evaluate", "--policies", "random", "--episodes", "1", "--env-kwargs",
+          "max_steps:3", "--no-plot"], "| random | 1 |"),
+        # Two worker processes step the envs: their forkserver imports the simulator too.
+        (["agents.train", "--env", PRIMITIVE.replace("v1", "v2"), "--n-envs", "2",
+          "--env-workers", "2", "--n-timesteps", "16", "--eval-freq", "0",
+          "--checkpoint-freq", "0", "--warm-start", "demos:0", "--no-progress-bar",
+          "--hyperparams", "n_steps:8", "batch_size:8", "n_epochs:1",
+          "--env-kwargs", "max_primitives:2"], "run saved in"),
+    ],
+    ids=["evaluate", "train-with-workers"],
+)  # fmt: skip
+def test_pybullets_start_up_lines_are_kept_out(tmp_path, argv, expected):
+    where = (
+        ["--out", str(tmp_path)]
+        if argv[0] == "agents.evaluate"
+        else ["--log-folder", str(tmp_path)]
+    )
+    command = [sys.executable, "-m", *argv, *where]
+    result = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     output = result.stdout + result.stderr
     assert "pybullet build time" not in output and "argv[0]=" not in output, output
-    assert "| random | 1 |" in result.stdout
+    assert expected in result.stdout
 
 
 def test_progress_lines_report_the_end_once(capsys):
