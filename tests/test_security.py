@@ -103,9 +103,10 @@ def plant_statistics_pickle(folder: Path, marker: Path) -> None:
     (folder / "vecnormalize.pkl").write_bytes(pickle.dumps(CreateFile(marker)))
 
 
-def refused_everywhere(capsys, folder: Path, marker: Path, *expected: str) -> None:
+def refused_everywhere(capsys, folder: Path, *expected: str, marker: Path | None = None) -> None:
     """``agents.evaluate``, ``agents.selection`` and the Python API refuse the folder's
-    model in one line with status 2, and the payload never runs."""
+    model in one line (holding each ``expected`` text) with status 2, and a planted payload
+    never runs (its ``marker`` file never appears)."""
     model = str(folder / "final_model.zip")
     out = folder.parent / "out"
     for main, argv in (
@@ -114,7 +115,7 @@ def refused_everywhere(capsys, folder: Path, marker: Path, *expected: str) -> No
     ):
         err = _usage_error(capsys, main, argv, *expected)
         assert err.count("\n") == 1, err
-        assert not marker.exists()
+        assert marker is None or not marker.exists()
     for call in (
         lambda: evaluate.evaluate([model], episodes=1, out=out, plot=False),
         lambda: selection.select_model([model], episodes=1, seed=SELECTION_SEED, out=out),
@@ -123,13 +124,13 @@ def refused_everywhere(capsys, folder: Path, marker: Path, *expected: str) -> No
         with pytest.raises(ValueError) as error:
             call()
         assert "\n" not in str(error.value) and all(text in str(error.value) for text in expected)
-        assert not marker.exists()
+        assert marker is None or not marker.exists()
 
 
 # ------------------------------------------------------------------------------ payloads
 def test_a_payload_in_the_statistics_pickle_never_runs(capsys, folder, marker):
     plant_statistics_pickle(folder, marker)
-    refused_everywhere(capsys, folder, marker, "vecnormalize.pkl", "--trust-pickle")
+    refused_everywhere(capsys, folder, "vecnormalize.pkl", "--trust-pickle", marker=marker)
 
 
 def test_a_payload_in_the_zips_pickled_entries_never_runs(folder, marker, tmp_path):
@@ -148,13 +149,14 @@ def test_a_payload_in_the_zips_pickled_entries_never_runs(folder, marker, tmp_pa
 
 def test_a_payload_in_a_new_pickled_entry_is_refused(capsys, folder, marker):
     plant_in_data(folder / "final_model.zip", marker, new_entry=True)
-    refused_everywhere(capsys, folder, marker, "'extra'", "--trust-pickle")
+    refused_everywhere(capsys, folder, "'extra'", "--trust-pickle", marker=marker)
 
 
 def test_a_payload_in_the_weights_is_refused(capsys, folder, marker):
     """SB3 reads the weights with ``torch.load(weights_only=True)``: tensors only."""
     plant_in_weights(folder / "final_model.zip", marker)
-    refused_everywhere(capsys, folder, marker, "does not load as a PPO model", "Weights only")
+    expected = ("does not load as a PPO model", "Weights only")
+    refused_everywhere(capsys, folder, *expected, marker=marker)
 
 
 def test_the_loading_unpickles_nothing(monkeypatch, folder):
@@ -223,16 +225,11 @@ def test_an_rl_zoo3_folder_and_another_algorithm_need_trust(tmp_path):
 
 
 # ------------------------------------------------------------- damaged or foreign folders
-def _refused_by_evaluate(capsys, folder: Path, *expected: str) -> None:
-    argv = ["--policies", str(folder / "final_model.zip"), "--out", str(folder / "out"), *SHORT]
-    err = _usage_error(capsys, evaluate.main, argv, *expected)
-    assert err.count("\n") == 1, err
-
-
+# Each through agents.evaluate, agents.selection and the Python API (refused_everywhere).
 def test_a_truncated_zip(capsys, folder):
     model = folder / "final_model.zip"
     model.write_bytes(model.read_bytes()[: model.stat().st_size // 2])
-    _refused_by_evaluate(capsys, folder, "final_model.zip", "damaged or not a zip")
+    refused_everywhere(capsys, folder, "final_model.zip", "damaged or not a zip")
 
 
 def test_statistics_of_the_wrong_shape(capsys, folder):
@@ -241,7 +238,7 @@ def test_statistics_of_the_wrong_shape(capsys, folder):
     for key in ("mean", "var"):
         record["obs_rms"]["contact"][key].pop()
     path.write_text(json.dumps(record))
-    _refused_by_evaluate(capsys, folder, "'contact' statistics have shape (11,)", "(12,)")
+    refused_everywhere(capsys, folder, "'contact' statistics have shape (11,)", "(12,)")
 
 
 def test_statistics_of_another_observation_mode(capsys, folder):
@@ -250,20 +247,20 @@ def test_statistics_of_another_observation_mode(capsys, folder):
     record = json.loads(path.read_text())
     record["obs_rms"], record["norm_obs_keys"] = {"mean": [0.0], "var": [1.0], "count": 1.0}, None
     path.write_text(json.dumps(record))
-    _refused_by_evaluate(capsys, folder, "vecnormalize.json", "one array", "Dict")
+    refused_everywhere(capsys, folder, "vecnormalize.json", "one array", "Dict")
 
 
 def test_missing_statistics_of_a_model_trained_with_them(capsys, folder):
     (folder / "vecnormalize.json").unlink()
-    _refused_by_evaluate(capsys, folder, "trained with VecNormalize", "vecnormalize.json")
+    refused_everywhere(capsys, folder, "trained with VecNormalize", "vecnormalize.json")
 
 
 def test_a_statistics_pickle_without_the_flag(capsys, folder):
     (folder / "vecnormalize.json").rename(folder / "vecnormalize.pkl")  # a pickle by its name
-    _refused_by_evaluate(capsys, folder, "vecnormalize.pkl", "is a pickle", "--trust-pickle")
+    refused_everywhere(capsys, folder, "vecnormalize.pkl", "is a pickle", "--trust-pickle")
 
 
 def test_a_zip_that_is_not_a_model(capsys, folder):
     with zipfile.ZipFile(folder / "final_model.zip", "w") as archive:
         archive.writestr("notes.txt", "not a model")
-    _refused_by_evaluate(capsys, folder, "not a stable-baselines3 model", "notes.txt")
+    refused_everywhere(capsys, folder, "not a stable-baselines3 model", "notes.txt")
