@@ -17,7 +17,18 @@ import pytest
 import yaml
 
 import tactile_gym
-from agents import aggregate, cli, evaluate, policies, reproduce_paper, runs, sweep, train
+from agents import (
+    aggregate,
+    cli,
+    convert_models,
+    evaluate,
+    policies,
+    reproduce_paper,
+    runs,
+    selection,
+    sweep,
+    train,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "models" / "ppo_HingeProbePrimitive-v1_s2" / "best_model.zip"
@@ -188,7 +199,7 @@ def test_the_algorithm_comes_from_the_models_zip(tmp_path):
 
 
 # --------------------------------------------------------------- help (issue 19, item 5)
-@pytest.mark.parametrize("module", [train, evaluate, sweep, aggregate])
+@pytest.mark.parametrize("module", [train, evaluate, sweep, aggregate, selection, convert_models])
 def test_every_option_has_help_and_the_usage_names_the_module(module, monkeypatch, capsys):
     parsers = []
 
