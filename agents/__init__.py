@@ -1,7 +1,5 @@
 """The command-line agents: training, evaluation, sweeps, the scripted baseline, Table I.
 
-Importing the package imports :mod:`agents.cli` first, which imports pybullet without its
-start-up line, so a command's output is its own whatever it imports next.
+Each ``python -m agents.<name>`` command is a module with a ``main``; the modules without
+one are the library the commands share (``docs/design.md``, Learning, has the map).
 """
-
-from . import cli  # noqa: F401 - first, for its quiet pybullet import

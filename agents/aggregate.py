@@ -24,7 +24,17 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import make_parser, run_main
+from .cli import json_safe, make_parser, run_main
+
+__all__ = [
+    "aggregate",
+    "bootstrap_ci",
+    "describe",
+    "load_runs",
+    "markdown",
+    "plot_learning_curves",
+    "write_results",
+]
 
 #: (key in the run's evaluation summary, column title, scale, format)
 METRICS = (
@@ -232,8 +242,6 @@ def plot_learning_curves(runs: list[RunResult], out_dir: str | Path) -> list[Pat
 def write_results(sweep_dir: str | Path, plot: bool = True) -> str:
     """Aggregate the finished runs under ``sweep_dir``; write ``results.md``,
     ``results.json`` and the learning curves there; return the markdown."""
-    from .evaluate import json_safe
-
     sweep_dir = Path(sweep_dir)
     runs = load_runs(sweep_dir)
     if not runs:

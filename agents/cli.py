@@ -8,10 +8,8 @@
   stderr and exit status 2, like pip, ruff and argparse; ``--debug`` shows the traceback
   instead. A closed pipe (``--dry-run | head``) ends quietly, Ctrl-C with status 130.
 * :class:`KeyValue`: the ``key:value`` arguments of ``--hyperparams`` and ``--env-kwargs``.
-* :func:`quiet_c_output`: PyBullet prints "pybullet build time" (stderr) from C, past
-  ``sys.stderr``, when it is imported. Importing this module imports pybullet inside that
-  block, and the package imports this module first (``agents/__init__.py``), so the
-  commands' output holds only what they mean to say.
+* :data:`DEFAULT_ENV_ID`, :func:`make_env`, :func:`check_env_id`: the ids the commands take.
+* :func:`json_safe`: what the commands write as strict JSON.
 
 A command adopts all of it in a few lines::
 
@@ -28,26 +26,46 @@ A command adopts all of it in a few lines::
 from __future__ import annotations
 
 import argparse
-import contextlib
-import ctypes
+import math
 import os
 import sys
 import textwrap
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
+import gymnasium as gym
 import yaml
 
 import tactile_gym
 
 #: Every id the commands take: the current ids, and the legacy ones that committed models use.
 KNOWN_ENV_IDS: tuple[str, ...] = tactile_gym.ENV_IDS + tactile_gym.LEGACY_ENV_IDS
+#: The env trained and evaluated when none is named.
+DEFAULT_ENV_ID = tactile_gym.ENV_IDS[0]
 
 
 def check_env_id(field: str, env_id: str) -> None:
     """A ``ValueError`` naming ``field`` unless ``env_id`` is one of ``KNOWN_ENV_IDS``."""
     if env_id not in KNOWN_ENV_IDS:
         raise ValueError(f"{field} must be one of {', '.join(KNOWN_ENV_IDS)}, got {env_id!r}")
+
+
+def make_env(env_id: str, **env_kwargs: Any) -> gym.Env:
+    """``gym.make`` after importing tactile_gym, so that worker processes know the ids."""
+    import tactile_gym  # noqa: F401 - registers the envs in this process
+
+    return gym.make(env_id, **env_kwargs)
+
+
+def json_safe(value):
+    """``value`` with every non-finite float replaced by ``None`` (strict JSON has no NaN)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    return value
 
 
 #: Errors that mean "the input was wrong", not "the code is wrong": reported in one line.
@@ -149,48 +167,33 @@ class KeyValue(argparse.Action):
                 raise argparse.ArgumentError(
                     self, f"the value of {key!r} is not valid YAML: {value!r}"
                 ) from error
+            joined = _colon_without_space(pairs[key])
+            if joined is not None:
+                meant = value.replace(joined, joined.replace(":", ": "))
+                raise argparse.ArgumentError(
+                    self,
+                    f"the value of {key!r} reads {joined!r} as one key with no value: YAML "
+                    f"needs a space after a colon, as in '{key}:{meant}' (quoted for the shell)",
+                )
         setattr(namespace, self.dest, pairs)
 
 
-@contextlib.contextmanager
-def quiet_c_output(fds: tuple[int, ...] = (1,)) -> Iterator[None]:
-    """File descriptors (stdout by default) sent to /dev/null for the block: silences what C
-    code prints there.
-
-    Python's own output to those streams inside the block is lost too; keep the block to
-    the C calls.
-    """
-    sys.stdout.flush()
-    sys.stderr.flush()
-    try:
-        libc = ctypes.CDLL(None)  # this process's C library (Linux, macOS)
-    except (OSError, TypeError):  # Windows has no such handle: C output is not buffered away
-        libc = None
-    saved = {}
-    try:
-        for fd in fds:
-            with contextlib.suppress(OSError):  # no such stream (a daemon): nothing to hide
-                saved[fd] = os.dup(fd)
-        with open(os.devnull, "w") as devnull:
-            for fd in saved:
-                os.dup2(devnull.fileno(), fd)
-            try:
-                yield
-            finally:
-                if libc is not None:  # C's buffered lines go to /dev/null, not the restored fd
-                    libc.fflush(None)
-                for fd, copy in saved.items():
-                    os.dup2(copy, fd)
-    finally:
-        for copy in saved.values():
-            os.close(copy)
-
-
-def import_pybullet_quietly() -> None:
-    """Import pybullet without its "pybullet build time" line on stderr (once a process)."""
-    if "pybullet" not in sys.modules:
-        with quiet_c_output((1, 2)):
-            import pybullet  # noqa: F401
+def _colon_without_space(value: Any) -> str | None:
+    """A mapping key in ``value``, at any depth, that holds a colon and has no value: what
+    YAML reads from ``{friction:0.3}``, where ``{friction: 0.3}`` was meant."""
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if isinstance(key, str) and ":" in key and item is None:
+                return key
+            found = _colon_without_space(item)
+            if found is not None:
+                return found
+    if isinstance(value, list):
+        for item in value:
+            found = _colon_without_space(item)
+            if found is not None:
+                return found
+    return None
 
 
 def _message(error: BaseException) -> str:
@@ -238,6 +241,3 @@ def run_main(main: Callable[[list[str] | None], Any], argv: list[str] | None = N
         print("interrupted", file=sys.stderr)
         return 130
     return result if isinstance(result, int) and not isinstance(result, bool) else 0
-
-
-import_pybullet_quietly()

@@ -24,7 +24,7 @@ import numpy as np
 
 from .cli import make_parser, run_main
 
-__all__ = ["PairedDifference", "paired_difference", "paired_table"]
+__all__ = ["REFERENCE", "PairedDifference", "paired_difference", "paired_table"]
 
 #: Bootstrap resamples: the interval's ends move by well under 1 % of its width between
 #: generator seeds at this count.

@@ -33,6 +33,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -100,8 +101,16 @@ def record_demos(
     episodes: int,
     first_seed: int = DEMO_SEED,
     env_kwargs: dict[str, Any] | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> Demos:
     """The scripted policy's episodes seeded ``first_seed + k``.
+
+    Args:
+        env_id: the id.
+        episodes: how many.
+        first_seed: the first episode's seed.
+        env_kwargs: ``gym.make`` keywords.
+        progress: called with the number of episodes recorded after each one.
 
     Raises:
         ValueError: an unknown id or fewer than one episode.
@@ -133,6 +142,8 @@ def record_demos(
             seeds.append(seed)
             errors.append(float(info["position_error"]))
             successes.append(bool(info["is_success"]))
+            if progress is not None:
+                progress(k + 1)
     finally:
         env.close()
     first = steps["obs"][0]

@@ -20,22 +20,27 @@ The policy reads only observations; it never reads the simulator.
 
 ``PrimitiveProber`` chooses primitives (the action of the ``...Primitive-v2`` ids);
 ``SkillProber`` runs the same choices through the same skills step by step for the 6-D ids.
-``scripted_policy(env)`` returns the right one for any v1 env.
-
-    python -m agents.scripted --env tactile_gym/HingeProbe-v2 --episodes 5
+``scripted_policy(env)`` returns the right one for any id. It notices a new episode from the
+observation (:func:`episode_started`), so one policy plays any number of episodes, with or
+without ``reset()``; ``python -m agents.evaluate --policies scripted`` plays it.
 """
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass
 
 import numpy as np
 
-from tactile_gym.envs.observation import ContactObs, LastMeasurementObs, ObservationCodec
+from tactile_gym.envs.observation import (
+    ContactObs,
+    LastMeasurementObs,
+    ObservationCodec,
+    PrimitiveObs,
+    ProgressObs,
+)
 from tactile_gym.envs.skills import PrimitiveExecutor, PrimitiveScales, TouchReading
 
-__all__ = ["PrimitiveProber", "ProberConfig", "SkillProber", "scripted_policy"]
+__all__ = ["PrimitiveProber", "ProberConfig", "SkillProber", "episode_started", "scripted_policy"]
 
 
 @dataclass(frozen=True)
@@ -171,9 +176,21 @@ class SkillProber:
         return action.astype(np.float32)
 
 
+def episode_started(obs: dict) -> bool:
+    """Whether a dict observation is an episode's first: no control step taken yet
+    (``progress.time_left`` still 1) and nothing measured, and on the primitive ids no
+    primitive yet (``primitive.kind`` 0). Every later observation of an episode has less
+    time left, since every action takes at least one control step."""
+    progress = ProgressObs.read(obs)
+    if progress.time_left < 1.0 or progress.measurements > 0:
+        return False
+    return PrimitiveObs.key not in obs or PrimitiveObs.read(obs).kind == 0.0
+
+
 class _Policy:
     """A prober with the ``get_action``/``reset`` interface of the other policies, taking dict
-    or flat observations (``observation_mode="flat"`` is read with the env's codec)."""
+    or flat observations (``observation_mode="flat"`` is read with the env's codec), that
+    starts over at each episode's first observation (:func:`episode_started`)."""
 
     def __init__(self, prober, codec: ObservationCodec, primitive: bool) -> None:
         self.prober = prober
@@ -185,6 +202,8 @@ class _Policy:
 
     def get_action(self, obs) -> np.ndarray:
         obs = self.codec.as_dict(obs)
+        if episode_started(obs):
+            self.prober.reset()
         action = self.prober.act(obs) if self.primitive else self.prober.get_action(obs)
         return action.astype(np.float32)
 
@@ -196,34 +215,3 @@ def scripted_policy(env, config: ProberConfig = ProberConfig()):  # noqa: B008
     if env.action_space.shape == (3,):
         return _Policy(PrimitiveProber(env.get_wrapper_attr("scales"), config), codec, True)
     return _Policy(SkillProber(PrimitiveExecutor.for_env(env.unwrapped), config), codec, False)
-
-
-def main(argv: list[str] | None = None) -> None:
-    import gymnasium as gym
-
-    import tactile_gym  # noqa: F401 - registers the envs
-
-    parser = argparse.ArgumentParser(description="Run the scripted baseline and print errors.")
-    parser.add_argument("--env", default="tactile_gym/HingeProbe-v2")
-    parser.add_argument("--episodes", type=int, default=3)
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-    env = gym.make(args.env)
-    policy = scripted_policy(env)
-    for k in range(args.episodes):
-        obs, info = env.reset(seed=args.seed + k)
-        policy.reset()
-        done = False
-        while not done:
-            obs, _, terminated, truncated, info = env.step(policy.get_action(obs))
-            done = terminated or truncated
-        print(
-            f"seed {args.seed + k}: position error {info['position_error'] * 1e3:.1f} mm, "
-            f"angle error {np.degrees(info['angle_error']):.2f} deg, "
-            f"{info['n_measurements']} measurements, success {info['is_success']}"
-        )
-    env.close()
-
-
-if __name__ == "__main__":
-    main()

@@ -46,9 +46,10 @@ import yaml
 import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
 
-from .cli import EXPECTED_ERRORS, check_env_id, make_parser, run_main
+from .cli import EXPECTED_ERRORS, check_env_id, make_env, make_parser, run_main
+from .hyperparams import ALGOS, check_hyperparameters, load_hyperparameters
+from .runs import latest_checkpoint
 from .seeds import TEST_SEED
-from .train import ALGOS, check_hyperparameters, latest_checkpoint, load_hyperparameters, make_env
 from .warmstart import load_recipe
 
 SWEEP_KEYS = {
@@ -237,7 +238,7 @@ def run_job(job: Job, run_dir: str, token: str) -> dict:
     """Train and evaluate one job in ``run_dir``; what each Ray task runs.
 
     A folder left by an interrupted attempt at the same job resumes from its latest
-    checkpoint (:func:`agents.train.latest_checkpoint`); any other is emptied first. The
+    checkpoint (:func:`agents.runs.latest_checkpoint`); any other is emptied first. The
     output goes to ``job.log`` line by line: a progress line every 30 s while training.
 
     Returns:

@@ -4,323 +4,84 @@
     python -m agents.train --algo sac --n-timesteps 20000 --env-kwargs observation_mode:flat \
         --hyperparams policy:MlpPolicy
 
-Hyperparameters come from ``configs/train/<algo>.yml``, in rl-baselines3-zoo's format (the
-same file works with ``python -m rl_zoo3.train -conf``): the ``default`` entry updated by the
-env's own entry, then by ``--hyperparams``, ``--env-kwargs``, ``--n-timesteps`` and
-``--n-envs``. Each run gets its own folder under ``--log-folder`` holding the resolved config,
-the arguments and the command line (``config.yml``), TensorBoard logs, the periodic evaluations
+Hyperparameters come from ``configs/train/<algo>.yml``, in rl-baselines3-zoo's format
+(``agents.hyperparams``): the ``default`` entry updated by the env's own entry, then by
+``--hyperparams``, ``--env-kwargs``, ``--n-timesteps`` and ``--n-envs``. Each run gets its own
+folder under ``--log-folder`` (``agents.runs``) holding the resolved config, the arguments and
+the command line (``config.yml``), TensorBoard logs, the periodic evaluations
 (``eval/evaluations.npz``), checkpoints, the best model found by the periodic evaluation
 (``best_model.zip``), the final model (``final_model.zip``) and, with normalisation, the
-``VecNormalize`` statistics saved with each model (see :func:`vecnormalize_path`).
+``VecNormalize`` statistics saved with each model as JSON (``agents.runs.statistics_path``).
 
-The hyperparameters are checked against the algorithm's constructor and the envs are made
-before the run folder is (:func:`check_hyperparameters`): a typo fails at once and leaves
-nothing behind. A run that fails later leaves no folder if it saved no model, else a
-``failed.txt`` saying why; an interrupted run with checkpoints can continue from the latest
-(``train(..., run_dir=..., resume=True)``, what ``agents.sweep`` does).
+A run is a few named steps over one :class:`Trainer`, as rl-baselines3-zoo's
+``ExperimentManager`` is: :meth:`~Trainer.setup` (the envs, the run folder, the model),
+:meth:`~Trainer.warm_start`, :meth:`~Trainer.learn` and :meth:`~Trainer.save`. The
+hyperparameters are checked against the algorithm's constructor and the envs are made before
+the run folder is: a typo fails at once and leaves nothing behind. A run that fails later
+leaves no folder if it saved no model, else a ``failed.txt`` saying why; an interrupted run
+with checkpoints can continue from the latest (``train(..., run_dir=..., resume=True)``, what
+``agents.sweep`` does).
 
 The envs run as the package's vector env (``gym.make_vec``, ``docs/design.md`` 7.9, through
-:mod:`agents.vec_env`), in this process or in worker processes as :func:`choose_env_workers`
-decides from the id and the cores; ``--env-workers`` and ``--vec-env`` override that.
+:mod:`agents.vec_env`), in this process or in worker processes as
+``agents.resources.choose_env_workers`` decides from the id and the cores; ``--env-workers``
+and ``--vec-env`` override that.
 """
 
 from __future__ import annotations
 
 import contextlib
-import copy
-import difflib
 import functools
-import inspect
-import os
 import shlex
 import shutil
 import sys
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import yaml
 
-import tactile_gym
-from tactile_gym.presets import load_yaml, preset_path
+from tactile_gym.presets import preset_path
 from tactile_gym.validation import check_int
 
 from .cli import (
+    DEFAULT_ENV_ID,
     KEY_VALUE_HELP,
     KNOWN_ENV_IDS,
     KeyValue,
     check_env_id,
+    make_env,
     make_parser,
     require,
     run_main,
 )
-from .progress import progress_lines
-from .seeds import DEMO_SEED, SELECTION_SEED, seed_ranges
-
-ALGOS = ("ppo", "sac")
-VEC_ENVS = ("vector", "dummy", "subproc")
-#: The env trained and evaluated when none is named.
-DEFAULT_ENV_ID = tactile_gym.ENV_IDS[0]
-#: Keys of a training config that are not constructor arguments of the algorithm.
-RUN_KEYS = ("policy", "n_timesteps", "n_envs", "normalize", "env_kwargs")
-#: rl_zoo3 keys that agents.train does not implement (it would pass them to the algorithm).
-ZOO_ONLY_KEYS = (
-    "frame_stack",
-    "env_wrapper",
-    "vec_env_wrapper",
-    "callback",
-    "monitor_kwargs",
-    "noise_type",
-    "noise_std",
+from .hyperparams import ALGOS, algo_kwargs, algorithm_class, resolve_config
+from .progress import clock, progress_lines
+from .resources import DEFAULT_TORCH_THREADS, available_cpus, choose_env_workers, torch_threads
+from .runs import (
+    latest_checkpoint,
+    load_model,
+    load_statistics,
+    make_run_dir,
+    read_run,
+    save_statistics,
+    statistics_path,
 )
-#: Torch threads of the learner unless told otherwise. The networks are small (two layers of
-#: 128-256 units, batches of 128-256): on 2 cores shared with other jobs PPO trained 2.9-3.8x
-#: faster on one thread than on two, and 1.06x on 2 quiet cores (benchmarks/bench_train.py);
-#: extra threads mostly wait on each other and on the envs.
-DEFAULT_TORCH_THREADS = 1
-#: Constructor arguments of the algorithm that agents.train sets from its own arguments.
-SET_BY_TRAIN = ("env", "seed", "device", "tensorboard_log", "verbose", "_init_setup_model")
-#: Hyperparameters that take rl_zoo3's ``"lin_<value>"`` linear schedules.
-SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
+from .seeds import DEMO_SEED, SELECTION_SEED, seed_ranges
+from .warmstart import load_recipe, run_recipe
+
+__all__ = ["TrainArgs", "Trainer", "train"]
+
+VEC_ENVS = ("vector", "dummy", "subproc")
 
 
-def make_env(env_id: str, **env_kwargs):
-    """``gym.make`` after importing tactile_gym, so that worker processes know the ids."""
-    import tactile_gym  # noqa: F401 - registers the envs in this process
+@dataclass(frozen=True)
+class TrainArgs:
+    """The arguments of a run: :func:`train`'s keywords, ``python -m agents.train``'s options.
 
-    return gym.make(env_id, **env_kwargs)
-
-
-def available_cpus() -> int:
-    """Cores this process may run on (its CPU affinity, not the machine's core count)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # macOS and Windows have no affinity call
-        return os.cpu_count() or 1
-
-
-def choose_env_workers(env_id: str, n_envs: int, n_cpus: int) -> int:
-    """How many processes step the vector env's sub-envs (``workers``, ``docs/design.md``
-    7.9): 1 is this process, beside the learner.
-
-    A primitive id's step is a whole primitive, many control steps of env work for one round
-    trip to a worker: one worker per env up to the cores, the learner (a small share of a
-    core) sharing them. A 6-D id's step is one control step, about what a round trip costs:
-    workers only when each gets a core of its own beside the learner, else in-process. The
-    README ("Speed", ``benchmarks/bench_train.py``) has the measurements.
-
-    Args:
-        env_id: the id trained.
-        n_envs: parallel envs.
-        n_cpus: cores the run may use.
-    """
-    if env_id in tactile_gym.PRIMITIVE_ENV_IDS:
-        return max(1, min(n_envs, n_cpus))
-    return n_envs if n_envs > 1 and n_cpus >= n_envs + 1 else 1
-
-
-@contextlib.contextmanager
-def torch_threads(n: int) -> Iterator[None]:
-    """Run torch with ``n`` intra-op threads, restoring the previous number afterwards."""
-    import torch
-
-    previous = torch.get_num_threads()
-    torch.set_num_threads(n)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(previous)
-
-
-def load_hyperparameters(algo: str, env_id: str, config_path: str | Path | None = None) -> dict:
-    """The ``default`` entry of the algo's YAML, updated by the env's entry.
-
-    The shipped files make every env entry complete with a YAML merge key, so this is also
-    exactly the entry rl_zoo3 reads; an id without an entry gets ``default`` in both.
-    """
-    if algo not in ALGOS:
-        raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
-    path = preset_path("train", config_path or algo)
-    table = load_yaml(path)
-    if "default" not in table:
-        raise ValueError(f"{path} has no 'default' entry")
-    config = copy.deepcopy(table["default"])
-    config.update(copy.deepcopy(table.get(env_id) or {}))
-    return config
-
-
-def vecnormalize_path(model_path: str | Path) -> Path:
-    """Where ``agents.train`` saves the ``VecNormalize`` statistics that go with a model.
-
-    * ``final_model.zip``: ``vecnormalize.pkl`` beside it (rl_zoo3's name);
-    * ``rl_model_<n>_steps.zip`` (checkpoints): ``rl_model_vecnormalize_<n>_steps.pkl`` beside
-      it (``CheckpointCallback``'s name, also in rl_zoo3's runs);
-    * any other ``<name>.zip`` (``best_model.zip``): ``<name>_vecnormalize.pkl`` beside it.
-    """
-    path = Path(model_path)
-    if path.stem == "final_model":
-        return path.with_name("vecnormalize.pkl")
-    if path.stem.startswith("rl_model_") and path.stem.endswith("_steps"):
-        return path.with_name(path.stem.replace("rl_model_", "rl_model_vecnormalize_", 1) + ".pkl")
-    return path.with_name(f"{path.stem}_vecnormalize.pkl")
-
-
-def make_run_dir(log_folder: Path, algo: str, env_id: str, seed: int) -> Path:
-    """A fresh folder ``<log_folder>/<algo>/<env>_s<seed>_<time>``."""
-    name = env_id.split("/")[-1]
-    stamp = time.strftime("%Y%m%d-%H%M%S")
-    run_dir = Path(log_folder) / algo / f"{name}_s{seed}_{stamp}"
-    suffix = 1
-    while run_dir.exists():
-        run_dir = Path(log_folder) / algo / f"{name}_s{seed}_{stamp}_{suffix}"
-        suffix += 1
-    run_dir.mkdir(parents=True)
-    return run_dir
-
-
-def resolve_config(
-    algo: str,
-    env_id: str,
-    config_path: str | Path | None = None,
-    hyperparams: Mapping[str, Any] | None = None,
-    env_kwargs: Mapping[str, Any] | None = None,
-    n_timesteps: int | None = None,
-    n_envs: int | None = None,
-) -> dict:
-    """The run's hyperparameters: the YAML, then the overrides, checked.
-
-    Args:
-        algo: ``"ppo"`` or ``"sac"``.
-        env_id: a registered id.
-        config_path: YAML of hyperparameters (name or path); defaults to the algo's.
-        hyperparams: keys that replace the YAML's (like rl_zoo3's ``--hyperparams``).
-        env_kwargs: keyword arguments of ``gym.make`` that update the YAML's ``env_kwargs``
-            key by key.
-        n_timesteps: total env steps, if given.
-        n_envs: parallel envs, if given.
-
-    Raises:
-        ValueError: an unsupported key or value, naming it and what is allowed.
-    """
-    config = load_hyperparameters(algo, env_id, config_path)
-    config.update(copy.deepcopy(dict(hyperparams or {})))
-    if env_kwargs:
-        config["env_kwargs"] = {**(config.get("env_kwargs") or {}), **env_kwargs}
-    if n_timesteps is not None:
-        config["n_timesteps"] = int(n_timesteps)
-    if n_envs is not None:
-        config["n_envs"] = int(n_envs)
-    for key in ("policy", "n_timesteps"):
-        if key not in config:
-            raise ValueError(f"the {algo} config for {env_id} has no {key!r}")
-    config.setdefault("n_envs", 1)
-    for key in ("n_timesteps", "n_envs"):
-        if not int(config[key]) >= 1:
-            raise ValueError(f"{key} must be >= 1, got {config[key]!r}")
-    unsupported = sorted(set(config) & set(ZOO_ONLY_KEYS))
-    if unsupported:
-        raise ValueError(
-            f"agents.train does not implement the rl_zoo3 keys {unsupported}; "
-            f"remove them or train with python -m rl_zoo3.train"
-        )
-    if not isinstance(config.get("normalize", False), (bool, dict)):
-        raise ValueError(
-            "normalize must be true, false or a mapping of VecNormalize arguments, "
-            f"got {config['normalize']!r}"
-        )
-    for key in ("policy_kwargs", "env_kwargs"):
-        if not isinstance(config.get(key) or {}, dict):
-            raise ValueError(f"{key} must be a mapping, got {config[key]!r}")
-    check_hyperparameters(algo, config)
-    return config
-
-
-def algorithm_class(algo: str) -> type:
-    """The stable-baselines3 class of ``algo``."""
-    if algo not in ALGOS:
-        raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
-    sb3 = require("stable_baselines3", "train")
-    return {"ppo": sb3.PPO, "sac": sb3.SAC}[algo]
-
-
-def check_hyperparameters(algo: str, config: Mapping[str, Any]) -> None:
-    """Check the config's keys against the algorithm's constructor, before anything runs.
-
-    Raises:
-        ValueError: a key that is neither a run key (:data:`RUN_KEYS`) nor an argument of the
-            algorithm, naming it, the closest allowed key and all of them; a key that
-            ``agents.train`` sets from its own arguments (:data:`SET_BY_TRAIN`); or a
-            schedule that is not ``lin_<number>``.
-    """
-    parameters = inspect.signature(algorithm_class(algo).__init__).parameters
-    allowed = sorted((set(parameters) - {"self", "policy", *SET_BY_TRAIN}) | set(RUN_KEYS))
-    for key in config:
-        if key in SET_BY_TRAIN:
-            raise ValueError(
-                f"hyperparameter {key!r} is set by agents.train's own arguments "
-                "(--seed, --device, --log-folder); remove it from the hyperparameters"
-            )
-        if key not in allowed:
-            close = difflib.get_close_matches(key, allowed, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ValueError(
-                f"unknown {algo} hyperparameter {key!r}{hint}; allowed: {', '.join(allowed)}"
-            )
-    algo_kwargs(config)  # checks the values of rl_zoo3's forms (schedules)
-
-
-def _linear_schedule(initial: float):
-    def schedule(progress_remaining: float) -> float:
-        return progress_remaining * initial
-
-    return schedule
-
-
-def algo_kwargs(config: Mapping[str, Any]) -> dict:
-    """The config's constructor arguments of the algorithm, with rl_zoo3's value forms:
-    ``"lin_<x>"`` schedules and ``train_freq`` lists."""
-    kwargs = {k: copy.deepcopy(v) for k, v in config.items() if k not in RUN_KEYS}
-    for key in SCHEDULE_KEYS:
-        value = kwargs.get(key)
-        if isinstance(value, str):
-            kind, _, initial = value.partition("_")
-            if kind != "lin":
-                raise ValueError(f"{key} must be a number or 'lin_<number>', got {value!r}")
-            kwargs[key] = _linear_schedule(float(initial))
-    if isinstance(kwargs.get("train_freq"), list):
-        kwargs["train_freq"] = tuple(kwargs["train_freq"])
-    return kwargs
-
-
-def train(
-    algo: str = "ppo",
-    env_id: str = DEFAULT_ENV_ID,
-    n_timesteps: int | None = None,
-    n_envs: int | None = None,
-    seed: int = 0,
-    log_folder: str | Path = "runs",
-    config_path: str | Path | None = None,
-    hyperparams: Mapping[str, Any] | None = None,
-    env_kwargs: Mapping[str, Any] | None = None,
-    eval_freq: int = 10_000,
-    eval_episodes: int = 20,
-    checkpoint_freq: int = 50_000,
-    progress_bar: bool = False,
-    vec_env: str = "vector",
-    env_workers: int | None = None,
-    n_cpus: int | None = None,
-    n_threads: int | None = None,
-    device: str = "cpu",
-    run_dir: str | Path | None = None,
-    command: str | None = None,
-    resume: bool = False,
-    warm_start: Mapping[str, Any] | None = None,
-) -> Path:
-    """Train one agent and return its run folder.
-
-    Args:
+    Attributes:
         algo: ``"ppo"`` or ``"sac"``.
         env_id: a registered id from ``tactile_gym.ENV_IDS``.
         n_timesteps: total env steps; overrides the config.
@@ -334,14 +95,14 @@ def train(
             ``n_timesteps`` so that every run evaluates (and saves a best model) at least
             once; 0 disables them.
         eval_episodes: episodes per evaluation, the same every time: seeds
-            ``SELECTION_SEED ..`` (``agents.seeds``, ``agents.selection``).
+            ``SELECTION_SEED ..`` (``agents.seeds``, ``agents.callbacks``).
         checkpoint_freq: env steps (summed over envs) between checkpoints; 0 disables them.
         progress_bar: show a progress bar (needs tqdm and rich); without it, a line every
-            30 s (:func:`progress_lines`).
+            30 s (``agents.progress``).
         vec_env: ``"vector"`` (the package's vector env), ``"subproc"`` (SB3's, one process
             per env) or ``"dummy"`` (SB3's loop over single envs in this process).
         env_workers: with ``"vector"``, how many processes step the sub-envs (1: this
-            process); defaults to :func:`choose_env_workers`'s choice.
+            process); defaults to ``agents.resources.choose_env_workers``'s choice.
         n_cpus: cores the run may use; defaults to this process's CPU affinity.
         n_threads: torch threads; defaults to ``DEFAULT_TORCH_THREADS``.
         device: torch device.
@@ -349,204 +110,338 @@ def train(
             instead of a fresh one under ``log_folder``.
         command: the command line to record; defaults to ``sys.argv``.
         resume: with a ``run_dir`` that holds an interrupted run, continue it from its
-            latest checkpoint (:func:`latest_checkpoint`) instead of refusing.
+            latest checkpoint (``agents.runs.latest_checkpoint``) instead of refusing.
         warm_start: keys over the config's ``warm_start`` recipe for the id
             (``agents.warmstart.WarmStart``): with demonstrations, PPO starts from a policy
             cloned from them and a critic fitted to their returns.
-
-    A run that fails leaves no folder if it made no model, else a ``failed.txt`` in it.
     """
-    require("stable_baselines3", "train")
-    from stable_baselines3.common.callbacks import CheckpointCallback
-    from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import (
-        DummyVecEnv,
-        SubprocVecEnv,
-        VecMonitor,
-        VecNormalize,
-    )
 
-    from .selection import FixedSeedVecEnv, continue_evaluations, fixed_seed_evaluation
-    from .vec_env import make_sb3_vec_env
-    from .warmstart import load_recipe, run_recipe
+    algo: str = "ppo"
+    env_id: str = DEFAULT_ENV_ID
+    n_timesteps: int | None = None
+    n_envs: int | None = None
+    seed: int = 0
+    log_folder: str | Path = "runs"
+    config_path: str | Path | None = None
+    hyperparams: Mapping[str, Any] | None = None
+    env_kwargs: Mapping[str, Any] | None = None
+    eval_freq: int = 10_000
+    eval_episodes: int = 20
+    checkpoint_freq: int = 50_000
+    progress_bar: bool = False
+    vec_env: str = "vector"
+    env_workers: int | None = None
+    n_cpus: int | None = None
+    n_threads: int | None = None
+    device: str = "cpu"
+    run_dir: str | Path | None = None
+    command: str | None = None
+    resume: bool = False
+    warm_start: Mapping[str, Any] | None = None
 
-    check_env_id("env_id", env_id)
-    if vec_env not in VEC_ENVS:
-        raise ValueError(f"vec_env must be one of {VEC_ENVS}, got {vec_env!r}")
-    config = resolve_config(algo, env_id, config_path, hyperparams, env_kwargs, n_timesteps, n_envs)
-    n_envs = int(config["n_envs"])
-    total_steps = int(config["n_timesteps"])
-    n_cpus = int(n_cpus or available_cpus())
-    if n_cpus < 1:
-        raise ValueError(f"n_cpus must be >= 1, got {n_cpus}")
-    if vec_env == "vector":
-        workers = choose_env_workers(env_id, n_envs, n_cpus) if env_workers is None else env_workers
-        workers = check_int("env_workers", workers, 1, n_envs)
-    elif env_workers is not None:
-        raise ValueError(f"env_workers needs vec_env 'vector', got vec_env {vec_env!r}")
-    n_threads = int(n_threads or DEFAULT_TORCH_THREADS)
-    recipe = load_recipe(preset_path("train", config_path or algo), env_id, warm_start)
-    if recipe.enabled and algo != "ppo":
-        raise ValueError(f"warm_start runs with ppo only, got algo {algo!r}")
 
-    run_env_kwargs = dict(config.get("env_kwargs") or {})
-    factory = functools.partial(make_env, env_id, **run_env_kwargs)
+class Trainer:
+    """One training run as named steps over its state, as rl-baselines3-zoo's
+    ``ExperimentManager`` (module docstring): :meth:`run` calls :meth:`setup`,
+    :meth:`warm_start`, :meth:`learn` and :meth:`save`, and cleans up after a failure.
 
-    def make_envs(n: int, first_seed: int):
+    Making a trainer checks the arguments and resolves the config; nothing is made yet.
+
+    Raises:
+        ValueError: a bad argument, hyperparameter or recipe, naming it.
+    """
+
+    def __init__(self, args: TrainArgs) -> None:
+        require("stable_baselines3", "train")
+        check_env_id("env_id", args.env_id)
+        if args.vec_env not in VEC_ENVS:
+            raise ValueError(f"vec_env must be one of {VEC_ENVS}, got {args.vec_env!r}")
+        self.args = args
+        self.config = resolve_config(
+            args.algo, args.env_id, args.config_path, args.hyperparams, args.env_kwargs,
+            args.n_timesteps, args.n_envs,
+        )  # fmt: skip
+        self.n_envs = int(self.config["n_envs"])
+        self.total_steps = int(self.config["n_timesteps"])
+        self.n_cpus = int(args.n_cpus or available_cpus())
+        if self.n_cpus < 1:
+            raise ValueError(f"n_cpus must be >= 1, got {self.n_cpus}")
+        self.workers = None
+        if args.vec_env == "vector":
+            workers = args.env_workers
+            if workers is None:
+                workers = choose_env_workers(args.env_id, self.n_envs, self.n_cpus)
+            self.workers = check_int("env_workers", workers, 1, self.n_envs)
+        elif args.env_workers is not None:
+            raise ValueError(f"env_workers needs vec_env 'vector', got vec_env {args.vec_env!r}")
+        self.n_threads = int(args.n_threads or DEFAULT_TORCH_THREADS)
+        self.recipe = load_recipe(
+            preset_path("train", args.config_path or args.algo), args.env_id, args.warm_start
+        )
+        if self.recipe.enabled and args.algo != "ppo":
+            raise ValueError(f"warm_start runs with ppo only, got algo {args.algo!r}")
+        self.env_kwargs = dict(self.config.get("env_kwargs") or {})
+        self.selection_seeds = list(
+            range(SELECTION_SEED, SELECTION_SEED + max(args.eval_episodes, 1))
+        )
+        self.env = self.eval_env = self.evaluation = None
+        self.run_dir: Path | None = None
+        self.created = False
+        self.checkpoint: Path | None = None
+        self.callbacks: list = []
+        self.start = time.monotonic()
+
+    def run(self) -> Path:
+        """The whole run; returns its folder. A run that fails leaves no folder if it made
+        no model, else a ``failed.txt`` in it."""
+        try:
+            with torch_threads(self.n_threads):
+                model = self.setup()
+                self.warm_start(model)
+                self.learn(model)
+            return self.save(model)
+        except BaseException as error:
+            if self.run_dir is not None:
+                _mark_failed(self.run_dir, self.created, error)
+            raise
+        finally:
+            for env in (self.env, self.eval_env):
+                if env is not None:
+                    env.close()
+
+    # ----------------------------------------------------------------------------- steps
+    def setup(self):
+        """The envs (a bad env keyword fails here, before a run folder exists), the run
+        folder with its ``config.yml``, the normalisation, the callbacks, and the model: a
+        new one, or the interrupted run's latest checkpoint with its statistics."""
+        from .callbacks import FixedSeedVecEnv
+
+        self.eval_env = FixedSeedVecEnv(self._make_envs(1, SELECTION_SEED), self.selection_seeds)
+        self.env = self._make_envs(self.n_envs, self.args.seed)
+        self._open_run_dir()
+        with open(self.run_dir / "config.yml", "w") as f:
+            yaml.safe_dump(self._record(), f, sort_keys=False)
+        self._normalize()
+        self.callbacks = self._callbacks()
+        if self.checkpoint is not None:
+            model = load_model(self.checkpoint, self.env, device=self.args.device, attach=True)
+            print(f"resuming from {self.checkpoint} at {model.num_timesteps} env steps", flush=True)
+            return model
+        return self._construct()
+
+    def warm_start(self, model) -> None:
+        """A new PPO model starts from the recipe's demonstrations (``agents.warmstart``);
+        a resumed or a SAC run, or a recipe without demonstrations, starts as it is."""
+        if self.recipe.enabled and self.checkpoint is None:
+            run_recipe(
+                model, self.recipe, self.args.env_id, self.env_kwargs, self.args.seed, self.run_dir
+            )
+
+    def learn(self, model) -> None:
+        """Learn up to the run's env steps (those of a resumed run included)."""
+        model.learn(
+            total_timesteps=self.total_steps - model.num_timesteps,
+            callback=self.callbacks,
+            progress_bar=self.args.progress_bar,
+            reset_num_timesteps=self.checkpoint is None,
+        )
+
+    def save(self, model) -> Path:
+        """The final model and its statistics; prints what the run made. Returns the run
+        folder."""
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        model.save(self.run_dir / "final_model")
+        if isinstance(self.env, VecNormalize):
+            save_statistics(self.env, statistics_path(self.run_dir / "final_model.zip"))
+        print(self.summary(model), flush=True)
+        return self.run_dir
+
+    # --------------------------------------------------------------------------- helpers
+    def _make_envs(self, n: int, first_seed: int):
         """``n`` envs seeded ``first_seed + i``; the training and the evaluation envs are
         wrapped alike, as SB3's syncing of normalisation statistics requires."""
-        if vec_env == "vector":
+        from stable_baselines3.common.env_util import make_vec_env
+        from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+
+        from .vec_env import make_sb3_vec_env
+
+        if self.args.vec_env == "vector":
             # VecMonitor keeps the episode records that one Monitor per env would.
-            envs = VecMonitor(make_sb3_vec_env(env_id, n, min(workers, n), **run_env_kwargs))
+            envs = VecMonitor(
+                make_sb3_vec_env(self.args.env_id, n, min(self.workers, n), **self.env_kwargs)
+            )
             envs.seed(first_seed)
             return envs
-        vec_cls = SubprocVecEnv if vec_env == "subproc" and n > 1 else DummyVecEnv
+        factory = functools.partial(make_env, self.args.env_id, **self.env_kwargs)
+        vec_cls = SubprocVecEnv if self.args.vec_env == "subproc" and n > 1 else DummyVecEnv
         return make_vec_env(factory, n_envs=n, seed=first_seed, vec_env_cls=vec_cls)
 
-    # The envs first: a bad env keyword fails here, before a run folder exists.
-    selection_seeds = list(range(SELECTION_SEED, SELECTION_SEED + max(eval_episodes, 1)))
-    eval_env = FixedSeedVecEnv(make_envs(1, SELECTION_SEED), selection_seeds)
-    env = make_envs(n_envs, seed)
-
-    checkpoint = None
-    if run_dir is None:
-        run_dir = make_run_dir(Path(log_folder), algo, env_id, seed)
-        created = True
-    else:
-        run_dir = Path(run_dir)
+    def _open_run_dir(self) -> None:
+        """A fresh folder under ``log_folder``, or ``run_dir``: refused if it holds a run,
+        unless resuming one that has a checkpoint."""
+        args = self.args
+        if args.run_dir is None:
+            self.created = True
+            self.run_dir = make_run_dir(Path(args.log_folder), args.algo, args.env_id, args.seed)
+            return
+        run_dir = Path(args.run_dir)
         created = not run_dir.exists()
         if (run_dir / "config.yml").exists():
-            checkpoint = latest_checkpoint(run_dir) if resume else None
-            if checkpoint is None:
-                env.close()
-                eval_env.close()
+            self.checkpoint = latest_checkpoint(run_dir) if args.resume else None
+            if self.checkpoint is None:
                 raise ValueError(f"run_dir {str(run_dir)!r} already holds a run (config.yml)")
         run_dir.mkdir(parents=True, exist_ok=True)
-    record = {
-        "algo": algo,
-        "env_id": env_id,
-        "seed": seed,
-        "command": command or shlex.join(sys.argv),
-        "arguments": {
-            "n_timesteps": n_timesteps,
-            "n_envs": n_envs,
-            "hyperparams": dict(hyperparams or {}),
-            "env_kwargs": dict(env_kwargs or {}),
-            "eval_freq": eval_freq,
-            "eval_episodes": eval_episodes,
-            "checkpoint_freq": checkpoint_freq,
-            "vec_env": vec_env,
-            "config_path": str(config_path) if config_path else None,
-        },
-        "resources": {
-            "n_cpus": n_cpus,
-            "vec_env": vec_env,
-            "env_workers": workers if vec_env == "vector" else None,
-            "torch_threads": n_threads,
-        },
-        "hyperparameters": config,
-        "warm_start": recipe.as_dict(),
-        "seeds": {
-            **seed_ranges(),
-            "training": [seed, seed + n_envs - 1],
-            "selection": [selection_seeds[0], selection_seeds[-1]],
-        },
-    }
-    if recipe.enabled and isinstance(recipe.demos, int):
-        record["seeds"]["demonstrations"] = [DEMO_SEED, DEMO_SEED + recipe.demos - 1]
-    if checkpoint is not None:
-        record["resumed_from"] = checkpoint.relative_to(run_dir).as_posix()
-        (run_dir / "failed.txt").unlink(missing_ok=True)
-    try:
-        with open(run_dir / "config.yml", "w") as f:
-            yaml.safe_dump(record, f, sort_keys=False)
-        normalize = config.get("normalize", False)
-        if normalize:
-            normalize_kwargs = normalize if isinstance(normalize, dict) else {}
-            normalize_kwargs = {"gamma": config.get("gamma", 0.99), **normalize_kwargs}
-            if checkpoint is not None:
-                env = VecNormalize.load(str(vecnormalize_path(checkpoint)), env)
-            else:
-                env = VecNormalize(env, **normalize_kwargs)
-            eval_kwargs = {k: v for k, v in normalize_kwargs.items() if k != "norm_reward"}
-            eval_env = VecNormalize(eval_env, training=False, norm_reward=False, **eval_kwargs)
+        self.run_dir, self.created = run_dir, created
+        if self.checkpoint is not None:
+            (run_dir / "failed.txt").unlink(missing_ok=True)
 
-        callbacks = [] if progress_bar else [progress_lines(total_steps)]
-        if eval_freq > 0:
-            evaluation = fixed_seed_evaluation(
-                eval_env,
-                eval_episodes,
-                max(min(eval_freq, total_steps) // n_envs, 1),
-                run_dir,
-                vecnormalize_path(run_dir / "best_model.zip") if normalize else None,
+    def _record(self) -> dict[str, Any]:
+        """What ``config.yml`` says: the run's arguments, resources, config and seeds."""
+        args = self.args
+        arguments = {
+            "n_timesteps": args.n_timesteps,
+            "n_envs": self.n_envs,
+            "hyperparams": dict(args.hyperparams or {}),
+            "env_kwargs": dict(args.env_kwargs or {}),
+            "eval_freq": args.eval_freq,
+            "eval_episodes": args.eval_episodes,
+            "checkpoint_freq": args.checkpoint_freq,
+            "vec_env": args.vec_env,
+            "config_path": str(args.config_path) if args.config_path else None,
+        }
+        record = {
+            "algo": args.algo,
+            "env_id": args.env_id,
+            "seed": args.seed,
+            "command": args.command or shlex.join(sys.argv),
+            "arguments": arguments,
+            "resources": {
+                "n_cpus": self.n_cpus,
+                "vec_env": args.vec_env,
+                "env_workers": self.workers,
+                "torch_threads": self.n_threads,
+            },
+            "hyperparameters": self.config,
+            "warm_start": self.recipe.as_dict(),
+            "seeds": {
+                **seed_ranges(),
+                "training": [args.seed, args.seed + self.n_envs - 1],
+                "selection": [self.selection_seeds[0], self.selection_seeds[-1]],
+            },
+        }
+        if self.recipe.enabled and isinstance(self.recipe.demos, int):
+            record["seeds"]["demonstrations"] = [DEMO_SEED, DEMO_SEED + self.recipe.demos - 1]
+        if self.checkpoint is not None:
+            record["resumed_from"] = self.checkpoint.relative_to(self.run_dir).as_posix()
+        return record
+
+    def _normalize(self) -> None:
+        """``VecNormalize`` around the envs where the config asks for it: the training env's
+        fresh, or a resumed run's from its checkpoint's statistics; the evaluation env's
+        follow them (SB3 syncs them at each evaluation) and leave rewards alone."""
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        normalize = self.config.get("normalize", False)
+        if not normalize:
+            return
+        kwargs = normalize if isinstance(normalize, dict) else {}
+        kwargs = {"gamma": self.config.get("gamma", 0.99), **kwargs}
+        if self.checkpoint is not None:
+            self.env = load_statistics(read_run(self.checkpoint), self.env, training=True)
+        else:
+            self.env = VecNormalize(self.env, **kwargs)
+        eval_kwargs = {k: v for k, v in kwargs.items() if k != "norm_reward"}
+        self.eval_env = VecNormalize(
+            self.eval_env, training=False, norm_reward=False, **eval_kwargs
+        )
+
+    def _callbacks(self) -> list:
+        """Progress lines (without a progress bar), the fixed-seed evaluation that saves the
+        best model with its statistics, and checkpoints with theirs."""
+        from .callbacks import Checkpoints, continue_evaluations, fixed_seed_evaluation
+
+        args = self.args
+        callbacks = [] if args.progress_bar else [progress_lines(self.total_steps)]
+        if args.eval_freq > 0:
+            normalize = self.config.get("normalize", False)
+            self.evaluation = fixed_seed_evaluation(
+                self.eval_env,
+                args.eval_episodes,
+                max(min(args.eval_freq, self.total_steps) // self.n_envs, 1),
+                self.run_dir,
+                statistics_path(self.run_dir / "best_model.zip") if normalize else None,
             )
-            if checkpoint is not None:
-                continue_evaluations(evaluation, run_dir / "eval" / "evaluations.npz")
-            callbacks.append(evaluation)
-        if checkpoint_freq > 0:
+            if self.checkpoint is not None:
+                continue_evaluations(self.evaluation, self.run_dir / "eval" / "evaluations.npz")
+            callbacks.append(self.evaluation)
+        if args.checkpoint_freq > 0:
             callbacks.append(
-                CheckpointCallback(
-                    save_freq=max(checkpoint_freq // n_envs, 1),
-                    save_path=str(run_dir / "checkpoints"),
-                    save_vecnormalize=True,
+                Checkpoints(
+                    max(args.checkpoint_freq // self.n_envs, 1), self.run_dir / "checkpoints"
                 )
             )
-        with torch_threads(n_threads):
-            if checkpoint is not None:
-                model = algorithm_class(algo).load(checkpoint, env=env, device=device)
-                print(f"resuming from {checkpoint} at {model.num_timesteps} env steps", flush=True)
-            else:
-                model = _construct(algo, config, env, seed, device, run_dir)
-                if recipe.enabled:
-                    run_recipe(model, recipe, env_id, run_env_kwargs, seed, run_dir)
-            model.learn(
-                total_timesteps=total_steps - model.num_timesteps,
-                callback=callbacks,
-                progress_bar=progress_bar,
-                reset_num_timesteps=checkpoint is None,
+        return callbacks
+
+    def _construct(self):
+        """The algorithm built from the config; a value it rejects is a ``ValueError``
+        naming the hyperparameters (stable-baselines3 checks values with ``assert`` and by
+        using them)."""
+        args, config = self.args, self.config
+        kwargs = algo_kwargs(config)
+        try:
+            return algorithm_class(args.algo)(
+                config["policy"],
+                self.env,
+                seed=args.seed,
+                device=args.device,
+                tensorboard_log=str(self.run_dir / "tensorboard"),
+                verbose=0,
+                **kwargs,
             )
-        model.save(run_dir / "final_model")
-        if isinstance(env, VecNormalize):
-            env.save(str(vecnormalize_path(run_dir / "final_model.zip")))
-    except BaseException as error:
-        _mark_failed(run_dir, created, error)
-        raise
-    finally:
-        env.close()
-        eval_env.close()
-    return run_dir
+        except (TypeError, AssertionError, KeyError) as error:
+            shown = {k: config[k] for k in kwargs}
+            raise ValueError(
+                f"{args.algo} rejected policy {config['policy']!r} with the hyperparameters "
+                f"{shown}: {error}"
+            ) from error
+
+    def summary(self, model) -> str:
+        """What the run made, in a few lines: steps and time, the best model's evaluation,
+        the files."""
+        args = self.args
+        lines = [
+            f"trained {args.algo} on {args.env_id} (seed {args.seed}): "
+            f"{model.num_timesteps} env steps in {clock(time.monotonic() - self.start)}"
+        ]
+        evaluation = self.evaluation
+        if evaluation is not None and evaluation.evaluations_results:
+            means = [sum(r) / len(r) for r in evaluation.evaluations_results]
+            best = max(range(len(means)), key=means.__getitem__)
+            lines.append(
+                f"  best_model.zip: mean reward {means[best]:.3f} on the {args.eval_episodes} "
+                f"selection episodes, at {evaluation.evaluations_timesteps[best]} env steps "
+                f"(best of {len(means)} evaluations)"
+            )
+        statistics = statistics_path(self.run_dir / "final_model.zip")
+        with_statistics = f", with {statistics.name}" if statistics.exists() else ""
+        lines.append(f"  final_model.zip: at {model.num_timesteps} env steps{with_statistics}")
+        lines.append(f"run saved in {self.run_dir}")
+        return "\n".join(lines)
 
 
-def _construct(algo: str, config: Mapping[str, Any], env, seed: int, device: str, run_dir: Path):
-    """The algorithm built from the config; a value it rejects is a ``ValueError`` naming the
-    hyperparameters (stable-baselines3 checks values with ``assert`` and by using them)."""
-    kwargs = algo_kwargs(config)
-    try:
-        return algorithm_class(algo)(
-            config["policy"],
-            env,
-            seed=seed,
-            device=device,
-            tensorboard_log=str(run_dir / "tensorboard"),
-            verbose=0,
-            **kwargs,
-        )
-    except (TypeError, AssertionError, KeyError) as error:
-        shown = {k: config[k] for k in kwargs}
-        raise ValueError(
-            f"{algo} rejected policy {config['policy']!r} with the hyperparameters {shown}: {error}"
-        ) from error
+def train(*args: Any, **kwargs: Any) -> Path:
+    """Train one agent and return its run folder: ``Trainer(TrainArgs(...)).run()``.
 
+    Args:
+        *args: the first fields of :class:`TrainArgs`, in order (``algo``, ``env_id``, ...).
+        **kwargs: its fields by name.
 
-def latest_checkpoint(run_dir: str | Path) -> Path | None:
-    """The run's checkpoint with the most env steps (``checkpoints/rl_model_<n>_steps.zip``),
-    or ``None``."""
-    found = []
-    for path in Path(run_dir).glob("checkpoints/rl_model_*_steps.zip"):
-        steps = path.stem.removeprefix("rl_model_").removesuffix("_steps")
-        if steps.isdigit():
-            found.append((int(steps), path))
-    return max(found)[1] if found else None
+    Raises:
+        ValueError: a bad argument, hyperparameter, recipe or env keyword, before a run
+            folder exists.
+    """
+    return Trainer(TrainArgs(*args, **kwargs)).run()
 
 
 def _mark_failed(run_dir: Path, created: bool, error: BaseException) -> None:
@@ -660,7 +555,7 @@ def main(argv: list[str] | None = None) -> Path:
         help="print a progress line every 30 s instead of a progress bar",
     )
     args = parser.parse_args(argv)
-    run_dir = train(
+    return train(
         algo=args.algo,
         env_id=args.env,
         n_timesteps=args.n_timesteps,
@@ -682,8 +577,6 @@ def main(argv: list[str] | None = None) -> Path:
         warm_start=args.warm_start,
         command=shlex.join(["python", "-m", parser.prog.split()[-1], *(argv or sys.argv[1:])]),
     )
-    print(f"run saved in {run_dir}")
-    return run_dir
 
 
 if __name__ == "__main__":

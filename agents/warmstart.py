@@ -37,6 +37,7 @@ import numpy as np
 from tactile_gym.presets import load_yaml
 
 from .demos import Demos
+from .progress import ProgressLines, clock
 
 __all__ = [
     "WarmStart",
@@ -304,8 +305,9 @@ def run_recipe(
     model, recipe: WarmStart, env_id: str, env_kwargs: dict, seed: int, run_dir: Path
 ) -> dict[str, Any]:
     """``agents.train``'s warm start of a new model: the demonstrations recorded (seeds
-    ``DEMO_SEED ..``) or loaded, then :func:`warm_start`; the recorded demonstrations and
-    what the fits measured go to ``run_dir`` (``demos.npz``, ``warm_start.yml``)."""
+    ``DEMO_SEED ..``, with a progress line every 10 s) or loaded, then :func:`warm_start`;
+    the recorded demonstrations and what the fits measured go to ``run_dir``
+    (``demos.npz``, ``warm_start.yml``), and a summary to stdout."""
     import time
 
     import yaml
@@ -315,14 +317,43 @@ def run_recipe(
 
     start = time.monotonic()
     if isinstance(recipe.demos, int):
-        demos = record_demos(env_id, recipe.demos, DEMO_SEED, env_kwargs)
+        last = DEMO_SEED + recipe.demos - 1
+        print(
+            f"warm start: recording {recipe.demos} episodes of the scripted policy on {env_id} "
+            f"(seeds {DEMO_SEED}..{last})",
+            flush=True,
+        )
+        lines = ProgressLines(recipe.demos, "demonstrations", interval=10.0)
+        demos = record_demos(env_id, recipe.demos, DEMO_SEED, env_kwargs, lines.update)
         save_demos(demos, Path(run_dir) / "demos.npz")
     else:
+        print(f"warm start: demonstrations from {recipe.demos}", flush=True)
         demos = load_demos(recipe.demos)
     recorded = time.monotonic() - start
     stats = warm_start(model, demos, recipe, seed)
     stats["seconds"] = {"demos": recorded, "fits": time.monotonic() - start - recorded}
     with open(Path(run_dir) / "warm_start.yml", "w") as f:
         yaml.safe_dump(stats, f, sort_keys=False)
-    print(f"warm start: {stats}", flush=True)
+    print(_summary(stats, recipe), flush=True)
     return stats
+
+
+def _summary(stats: dict[str, Any], recipe: WarmStart) -> str:
+    """What :func:`run_recipe` measured, in a few lines."""
+
+    def losses(name: str, epochs: int, values: list[float]) -> str:
+        if not values:
+            return f"  {name}: none (0 epochs)"
+        return f"  {name}: {epochs} epochs, loss {values[0]:.4g} -> {values[-1]:.4g}"
+
+    first, last = stats["seeds"]
+    seconds = stats["seconds"]
+    return "\n".join(
+        [
+            f"warm start: {stats['episodes']} demonstrations (seeds {first}..{last}, "
+            f"{stats['samples']} steps) in {clock(seconds['demos'])}, fits in "
+            f"{clock(seconds['fits'])}",
+            losses("policy cloned", recipe.bc_epochs, stats["bc_loss"]),
+            losses("critic fitted", recipe.value_epochs, stats["value_loss"]),
+        ]
+    )

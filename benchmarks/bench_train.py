@@ -29,7 +29,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import tactile_gym  # noqa: E402
-from agents import train as train_mod  # noqa: E402
+from agents import cli, hyperparams, resources  # noqa: E402
 
 
 class SpacesEnv(gym.Env):
@@ -55,7 +55,7 @@ class SpacesEnv(gym.Env):
 
 def _factory(env_id: str, env_kwargs: dict, dummy: bool):
     def make():
-        env = train_mod.make_env(env_id, **env_kwargs)
+        env = cli.make_env(env_id, **env_kwargs)
         if not dummy:
             return env
         # The env truncates episodes itself (no TimeLimit): a 6-D id after max_steps control
@@ -108,9 +108,9 @@ def time_training(algo, env_id, config, workers, threads, steps, dummy) -> float
 
     env = _vec_env(env_id, config, workers, dummy)
     try:
-        with train_mod.torch_threads(threads):
+        with resources.torch_threads(threads):
             model = {"ppo": PPO, "sac": SAC}[algo](
-                config["policy"], env, seed=0, device="cpu", **train_mod.algo_kwargs(config)
+                config["policy"], env, seed=0, device="cpu", **hyperparams.algo_kwargs(config)
             )
             warmup = int(config.get("n_steps", 256)) * int(config["n_envs"])
             model.learn(warmup)
@@ -141,18 +141,18 @@ def time_env_only(env_id, config, workers, steps) -> float:
 
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--algo", choices=train_mod.ALGOS, default="ppo")
-    parser.add_argument("--env", default=train_mod.DEFAULT_ENV_ID, help=str(tactile_gym.ENV_IDS))
+    parser.add_argument("--algo", choices=hyperparams.ALGOS, default="ppo")
+    parser.add_argument("--env", default=cli.DEFAULT_ENV_ID, help=str(tactile_gym.ENV_IDS))
     parser.add_argument("--steps", type=int, default=4096, help="timed env steps per case")
     parser.add_argument("--n-envs", type=int, default=None)
     parser.add_argument("--repeats", type=int, default=1)
     args = parser.parse_args(argv)
 
-    config = train_mod.resolve_config(args.algo, args.env, n_envs=args.n_envs)
-    n_envs, n_cpus = int(config["n_envs"]), train_mod.available_cpus()
-    chosen = train_mod.choose_env_workers(args.env, n_envs, n_cpus)
+    config = hyperparams.resolve_config(args.algo, args.env, n_envs=args.n_envs)
+    n_envs, n_cpus = int(config["n_envs"]), resources.available_cpus()
+    chosen = resources.choose_env_workers(args.env, n_envs, n_cpus)
     other = 1 if chosen > 1 else min(n_envs, n_cpus)  # in-process against workers
-    threads = train_mod.DEFAULT_TORCH_THREADS
+    threads = resources.DEFAULT_TORCH_THREADS
     more = 2 * threads
 
     def workers(k: int) -> str:

@@ -23,14 +23,16 @@ import numpy as np
 # Measure the checkout this file is in (git worktrees share one virtual environment).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from agents.evaluate import make_policy, resolve_policies, run_episode, summarize  # noqa: E402
+from agents.cli import make_env  # noqa: E402
+from agents.episodes import run_episode, summarize  # noqa: E402
+from agents.policies import make_policy, resolve_policies  # noqa: E402
+from agents.resources import torch_threads  # noqa: E402
 from agents.seeds import SELECTION_SEED  # noqa: E402
-from agents.train import make_env, torch_threads  # noqa: E402
 
 
 class Recorder:
     """A policy that acts as ``policy`` does and keeps each action, clipped to the action
-    space, for the statistics; the episodes are ``agents.evaluate.run_episode``'s."""
+    space, for the statistics; the episodes are ``agents.episodes.run_episode``'s."""
 
     def __init__(self, policy) -> None:
         self.policy = policy

@@ -27,7 +27,7 @@ import gymnasium as gym  # noqa: E402
 
 import tactile_gym  # noqa: E402, F401 - registers the envs
 from agents.cli import KEY_VALUE_HELP, KeyValue  # noqa: E402
-from agents.evaluate import run_episode, summarize  # noqa: E402
+from agents.episodes import run_episode, summarize  # noqa: E402
 from agents.scripted import ProberConfig, scripted_policy  # noqa: E402
 from agents.seeds import SELECTION_SEED  # noqa: E402
 

@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 import tactile_gym  # noqa: F401 - registers the envs
-from agents import evaluate, train
+from agents import cli, episodes, evaluate, hyperparams, policies, resources, runs, train
 from tactile_gym.presets import preset_path
 
 TINY = {
@@ -70,7 +70,7 @@ def test_env_factory_registers_the_ids_in_a_fresh_process():
     import functools
     import multiprocessing
 
-    factory = functools.partial(train.make_env, train.DEFAULT_ENV_ID)
+    factory = functools.partial(cli.make_env, cli.DEFAULT_ENV_ID)
     with multiprocessing.get_context("spawn").Pool(1) as pool:
         assert pool.apply(_action_space_shape, (factory,)) == (7,)  # v2: motion and tare
 
@@ -86,7 +86,8 @@ def test_training_smoke_sac_dict_observations(tmp_path):
     assert record["hyperparameters"]["n_timesteps"] == 64
     assert record["command"].startswith("python -m agents.train")
     assert (run_dir / "final_model.zip").exists()
-    assert (run_dir / "vecnormalize.pkl").exists()
+    assert (run_dir / "vecnormalize.json").exists()
+    assert not list(run_dir.rglob("*.pkl"))  # nothing pickled beside the models
     summaries = evaluate.evaluate([str(run_dir / "final_model.zip")], episodes=1, plot=False,
                                   out=tmp_path / "eval")  # fmt: skip
     (label,) = summaries
@@ -96,8 +97,8 @@ def test_training_smoke_sac_dict_observations(tmp_path):
     lone = tmp_path / "elsewhere" / "model.zip"
     lone.parent.mkdir()
     shutil.copy(run_dir / "final_model.zip", lone)
-    env = gym.make(train.DEFAULT_ENV_ID, max_steps=5)
-    assert type(evaluate.make_policy(str(lone), env).model).__name__ == "SAC"
+    env = gym.make(cli.DEFAULT_ENV_ID, max_steps=5)
+    assert type(policies.make_policy(str(lone), env).model).__name__ == "SAC"
     env.close()
 
 
@@ -109,43 +110,44 @@ def test_training_records_resolved_run(flat_ppo_run):
     # 2 cores or fewer: a 6-D id's envs share them with the learner, so they run in-process,
     # as the package's vector env.
     assert record["resources"]["vec_env"] == "vector"
-    if train.available_cpus() <= 2:
+    if resources.available_cpus() <= 2:
         assert record["resources"]["env_workers"] == 1
-    assert record["resources"]["torch_threads"] == train.DEFAULT_TORCH_THREADS
+    assert record["resources"]["torch_threads"] == resources.DEFAULT_TORCH_THREADS
 
 
 def test_short_run_saves_best_model_with_its_statistics(flat_ppo_run):
     # 64 steps is below the default eval_freq (10,000): the run still evaluates once.
     assert (flat_ppo_run / "best_model.zip").exists()
     assert (flat_ppo_run / "eval" / "evaluations.npz").exists()
-    best_stats = train.vecnormalize_path(flat_ppo_run / "best_model.zip")
-    assert best_stats == flat_ppo_run / "best_model_vecnormalize.pkl"
+    best_stats = runs.statistics_path(flat_ppo_run / "best_model.zip")
+    assert best_stats == flat_ppo_run / "best_model_vecnormalize.json"
     assert best_stats.exists()
     checkpoint = flat_ppo_run / "checkpoints" / "rl_model_32_steps.zip"
     assert checkpoint.exists()
-    assert train.vecnormalize_path(checkpoint).exists()
+    assert runs.statistics_path(checkpoint).exists()
+    assert not list(flat_ppo_run.rglob("*.pkl"))
 
 
 def test_model_uses_the_statistics_saved_with_it(flat_ppo_run, tmp_path):
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+    from stable_baselines3.common.vec_env import DummyVecEnv
 
-    env = train.make_env(train.DEFAULT_ENV_ID, observation_mode="flat")
+    env = cli.make_env(cli.DEFAULT_ENV_ID, observation_mode="flat")
     checkpoint = flat_ppo_run / "checkpoints" / "rl_model_32_steps.zip"
     for model in (flat_ppo_run / "best_model.zip", checkpoint, flat_ppo_run / "final_model.zip"):
-        policy = evaluate.ModelPolicy(model, env)
-        saved = VecNormalize.load(str(train.vecnormalize_path(model)), DummyVecEnv([lambda: env]))
+        policy = policies.ModelPolicy(model, env)
+        saved = runs.read_statistics(runs.statistics_path(model), DummyVecEnv([lambda: env]))
         np.testing.assert_array_equal(policy.normalizer.obs_rms.mean, saved.obs_rms.mean)
         assert policy.normalizer.obs_rms.count == saved.obs_rms.count
     # The checkpoint at 32 steps saw fewer observations than the final model.
-    final = evaluate.ModelPolicy(flat_ppo_run / "final_model.zip", env).normalizer
-    early = evaluate.ModelPolicy(checkpoint, env).normalizer
+    final = policies.ModelPolicy(flat_ppo_run / "final_model.zip", env).normalizer
+    early = policies.ModelPolicy(checkpoint, env).normalizer
     assert early.obs_rms.count < final.obs_rms.count
     # Without its own statistics, a normalised model is refused, not scaled with others'.
     copy = tmp_path / "run"
     shutil.copytree(flat_ppo_run, copy)
-    (copy / "best_model_vecnormalize.pkl").unlink()
-    with pytest.raises(ValueError, match="best_model_vecnormalize.pkl"):
-        evaluate.ModelPolicy(copy / "best_model.zip", env)
+    (copy / "best_model_vecnormalize.json").unlink()
+    with pytest.raises(ValueError, match="best_model_vecnormalize.json"):
+        policies.ModelPolicy(copy / "best_model.zip", env)
     env.close()
 
 
@@ -167,13 +169,13 @@ def test_evaluation_labels_and_env_kwargs_per_run(flat_ppo_run, tmp_path):
     data = json.loads((tmp_path / "evaluation.json").read_text())
     # The models ran on flat observations, as they were trained; random on the default; the
     # keywords given update each run's.
-    policies = data["policies"]
+    shown = data["policies"]
     flat = {"observation_mode": "flat", **short}
-    assert policies[f"{other.name}/final_model"]["env_kwargs"] == flat
-    assert policies["random"]["env_kwargs"] == short
-    assert data["env_id"] == train.DEFAULT_ENV_ID
+    assert shown[f"{other.name}/final_model"]["env_kwargs"] == flat
+    assert shown["random"]["env_kwargs"] == short
+    assert data["env_id"] == cli.DEFAULT_ENV_ID
     with pytest.raises(ValueError, match="listed once"):
-        evaluate.policy_labels([models[0], models[0]])
+        policies.policy_labels([models[0], models[0]])
 
 
 def test_policy_labels_grow_until_unique(tmp_path):
@@ -181,31 +183,33 @@ def test_policy_labels_grow_until_unique(tmp_path):
         run = tmp_path / sweep / "ppo" / "HingeProbe-v1_s0"
         run.mkdir(parents=True)
         (run / "final_model.zip").touch()
-    labels = evaluate.policy_labels(
+    labels = policies.policy_labels(
         [str(tmp_path / s / "ppo" / "HingeProbe-v1_s0" / "final_model.zip") for s in ("a", "b")]
     )
     assert labels == ["a/ppo/HingeProbe-v1_s0/final_model", "b/ppo/HingeProbe-v1_s0/final_model"]
 
 
 def test_vecnormalize_paths():
-    assert train.vecnormalize_path("r/final_model.zip").as_posix() == "r/vecnormalize.pkl"
-    assert train.vecnormalize_path("r/best_model.zip").as_posix() == "r/best_model_vecnormalize.pkl"
-    checkpoint = train.vecnormalize_path("r/checkpoints/rl_model_500_steps.zip")
-    assert checkpoint.as_posix() == "r/checkpoints/rl_model_vecnormalize_500_steps.pkl"
+    assert runs.statistics_path("r/final_model.zip").as_posix() == "r/vecnormalize.json"
+    assert runs.statistics_path("r/best_model.zip").as_posix() == "r/best_model_vecnormalize.json"
+    old = runs.statistics_path("r/best_model.zip", ".pkl")
+    assert old.as_posix() == "r/best_model_vecnormalize.pkl"
+    checkpoint = runs.statistics_path("r/checkpoints/rl_model_500_steps.zip")
+    assert checkpoint.as_posix() == "r/checkpoints/rl_model_vecnormalize_500_steps.json"
 
 
 def test_env_workers_choice():
     primitive, six_d = "tactile_gym/HingeProbePrimitive-v2", "tactile_gym/HingeProbe-v2"
     # A primitive is worth a round trip to a worker: one per env, up to the cores.
-    assert train.choose_env_workers(primitive, n_envs=2, n_cpus=2) == 2
-    assert train.choose_env_workers(primitive, n_envs=8, n_cpus=2) == 2
-    assert train.choose_env_workers(primitive, n_envs=2, n_cpus=1) == 1
-    assert train.choose_env_workers(primitive, n_envs=1, n_cpus=16) == 1
+    assert resources.choose_env_workers(primitive, n_envs=2, n_cpus=2) == 2
+    assert resources.choose_env_workers(primitive, n_envs=8, n_cpus=2) == 2
+    assert resources.choose_env_workers(primitive, n_envs=2, n_cpus=1) == 1
+    assert resources.choose_env_workers(primitive, n_envs=1, n_cpus=16) == 1
     # A control step is not, unless every env gets a core of its own beside the learner.
-    assert train.choose_env_workers(six_d, n_envs=2, n_cpus=2) == 1
-    assert train.choose_env_workers(six_d, n_envs=1, n_cpus=16) == 1
-    assert train.choose_env_workers(six_d, n_envs=2, n_cpus=3) == 2
-    assert train.choose_env_workers(six_d, n_envs=8, n_cpus=16) == 8
+    assert resources.choose_env_workers(six_d, n_envs=2, n_cpus=2) == 1
+    assert resources.choose_env_workers(six_d, n_envs=1, n_cpus=16) == 1
+    assert resources.choose_env_workers(six_d, n_envs=2, n_cpus=3) == 2
+    assert resources.choose_env_workers(six_d, n_envs=8, n_cpus=16) == 8
     with pytest.raises(ValueError, match="vec_env"):
         train.train(vec_env="forkserver")
     with pytest.raises(ValueError, match="env_workers"):
@@ -215,34 +219,34 @@ def test_env_workers_choice():
 
 
 def test_hyperparameters_resolve_per_env():
-    config = train.load_hyperparameters("ppo", "tactile_gym/HingeProbe3D-v1")
-    default = train.load_hyperparameters("ppo", "tactile_gym/HingeProbe-v1")
+    config = hyperparams.load_hyperparameters("ppo", "tactile_gym/HingeProbe3D-v1")
+    default = hyperparams.load_hyperparameters("ppo", "tactile_gym/HingeProbe-v1")
     assert config["n_timesteps"] > default["n_timesteps"]
     with pytest.raises(ValueError, match="algo"):
-        train.load_hyperparameters("dqn", "tactile_gym/HingeProbe-v1")
+        hyperparams.load_hyperparameters("dqn", "tactile_gym/HingeProbe-v1")
 
 
 def test_resolve_config_overrides_and_rejects():
-    config = train.resolve_config(
-        "ppo", train.DEFAULT_ENV_ID, hyperparams={"learning_rate": "lin_1e-3"},
+    config = hyperparams.resolve_config(
+        "ppo", cli.DEFAULT_ENV_ID, hyperparams={"learning_rate": "lin_1e-3"},
         env_kwargs={"observation_mode": "flat"}, n_timesteps=100, n_envs=3,
     )  # fmt: skip
     assert (config["n_timesteps"], config["n_envs"]) == (100, 3)
     assert config["env_kwargs"] == {"observation_mode": "flat"}
-    schedule = train.algo_kwargs(config)["learning_rate"]
+    schedule = hyperparams.algo_kwargs(config)["learning_rate"]
     assert schedule(1.0) == pytest.approx(1e-3) and schedule(0.5) == pytest.approx(5e-4)
     with pytest.raises(ValueError, match="frame_stack"):
-        train.resolve_config("ppo", train.DEFAULT_ENV_ID, hyperparams={"frame_stack": 4})
+        hyperparams.resolve_config("ppo", cli.DEFAULT_ENV_ID, hyperparams={"frame_stack": 4})
     with pytest.raises(ValueError, match="normalize"):
-        train.resolve_config("ppo", train.DEFAULT_ENV_ID, hyperparams={"normalize": "yes"})
+        hyperparams.resolve_config("ppo", cli.DEFAULT_ENV_ID, hyperparams={"normalize": "yes"})
     with pytest.raises(ValueError, match="learning_rate"):
-        train.algo_kwargs({"learning_rate": "exp_1e-3"})
+        hyperparams.algo_kwargs({"learning_rate": "exp_1e-3"})
     with pytest.raises(ValueError, match="n_envs"):
-        train.resolve_config("ppo", train.DEFAULT_ENV_ID, n_envs=0)
+        hyperparams.resolve_config("ppo", cli.DEFAULT_ENV_ID, n_envs=0)
 
 
 @pytest.mark.parametrize("env_id", tactile_gym.ENV_IDS)
-@pytest.mark.parametrize("algo", train.ALGOS)
+@pytest.mark.parametrize("algo", hyperparams.ALGOS)
 def test_rl_zoo3_reads_our_hyperparameters(algo, env_id, tmp_path):
     """rl_zoo3 reads the env's entry alone: it must be complete and mean what ours means."""
     import argparse
@@ -255,21 +259,21 @@ def test_rl_zoo3_reads_our_hyperparameters(algo, env_id, tmp_path):
     path = str(preset_path("train", algo))
     manager = ExperimentManager(argparse.Namespace(), algo, env_id, str(tmp_path), config=path,
                                 verbose=0)  # fmt: skip
-    hyperparams, _ = manager.read_hyperparameters()
-    kwargs, *_ = manager._preprocess_hyperparams(dict(hyperparams))
-    ours = train.load_hyperparameters(algo, env_id)
-    assert hyperparams == ours
+    theirs, _ = manager.read_hyperparameters()
+    kwargs, *_ = manager._preprocess_hyperparams(dict(theirs))
+    ours = hyperparams.load_hyperparameters(algo, env_id)
+    assert theirs == ours
     assert manager.n_timesteps == ours["n_timesteps"]
     assert manager.n_envs == ours["n_envs"]
     assert manager.normalize == ours["normalize"]
     assert manager.env_kwargs == ours.get("env_kwargs", {})
     constructor = inspect.signature({"ppo": PPO, "sac": SAC}[algo]).parameters
     assert set(kwargs) <= set(constructor)
-    assert set(train.algo_kwargs(ours)) | {"policy"} == set(kwargs)
+    assert set(hyperparams.algo_kwargs(ours)) | {"policy"} == set(kwargs)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("algo", train.ALGOS)
+@pytest.mark.parametrize("algo", hyperparams.ALGOS)
 def test_rl_zoo3_trains_with_our_config(algo, tmp_path):
     import subprocess
     import sys
@@ -277,15 +281,19 @@ def test_rl_zoo3_trains_with_our_config(algo, tmp_path):
     pytest.importorskip("rl_zoo3")
     tiny = [f"{k}:{v}" for k, v in TINY[algo].items()]
     command = [sys.executable, "-m", "rl_zoo3.train", "--algo", algo, "--env",
-               train.DEFAULT_ENV_ID, "--gym-packages", "tactile_gym", "-conf",
+               cli.DEFAULT_ENV_ID, "--gym-packages", "tactile_gym", "-conf",
                str(preset_path("train", algo)), "-n", "64", "--eval-freq", "-1", "-f",
                str(tmp_path), "-params", *tiny]  # fmt: skip
     result = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr[-3000:]
     (model,) = (tmp_path / algo).glob("*/*.zip")
     assert (model.parent / model.stem / "vecnormalize.pkl").exists()
-    # agents.evaluate reads rl_zoo3's run layout too.
-    summaries = evaluate.evaluate([str(model)], episodes=1, out=tmp_path / "eval", plot=False)
+    # agents.evaluate reads rl_zoo3's run layout too, whose files are pickles: only trusted.
+    with pytest.raises(ValueError, match="rl_zoo3 run"):
+        evaluate.evaluate([str(model)], episodes=1, out=tmp_path / "eval", plot=False)
+    summaries = evaluate.evaluate(
+        [str(model)], episodes=1, out=tmp_path / "eval", plot=False, trust_pickle=True
+    )
     assert summaries[f"{model.parent.name}/{model.stem}"]["episodes"] == 1
 
 
@@ -295,21 +303,21 @@ def test_model_run_reads_rl_zoo3_layout(tmp_path):
     run_dir = tmp_path / "ppo" / "tactile_gym-HingeProbe-v1_1"
     params = run_dir / "tactile_gym-HingeProbe-v1"
     params.mkdir(parents=True)
-    args = OrderedDict(
-        algo="sac", env=train.DEFAULT_ENV_ID, env_kwargs={"observation_mode": "flat"}
-    )
+    args = OrderedDict(algo="sac", env=cli.DEFAULT_ENV_ID, env_kwargs={"observation_mode": "flat"})
     (params / "args.yml").write_text(yaml.dump(args))  # rl_zoo3 dumps with the Python tag
     (params / "config.yml").write_text(yaml.dump(OrderedDict(normalize=True, n_envs=2)))
     for name in ("tactile_gym-HingeProbe-v1", "best_model", "rl_model_64_steps"):
         (run_dir / f"{name}.zip").touch()
-    run = evaluate.model_run(run_dir / "tactile_gym-HingeProbe-v1.zip")
-    assert (run["algo"], run["env_id"], run["normalize"]) == ("sac", train.DEFAULT_ENV_ID, True)
-    assert run["env_kwargs"] == {"observation_mode": "flat"}
-    assert run["vecnormalize"] == params / "vecnormalize.pkl"
-    checkpoint = evaluate.model_run(run_dir / "rl_model_64_steps.zip")["vecnormalize"]
+    run = runs.model_run(run_dir / "tactile_gym-HingeProbe-v1.zip")
+    assert (run.algo, run.env_id, run.normalize) == ("sac", cli.DEFAULT_ENV_ID, True)
+    assert run.env_kwargs == {"observation_mode": "flat"}
+    assert run.layout == "rl_zoo3"
+    assert run.pickled_statistics == params / "vecnormalize.pkl"
+    checkpoint = runs.model_run(run_dir / "rl_model_64_steps.zip").pickled_statistics
     assert checkpoint == run_dir / "rl_model_vecnormalize_64_steps.pkl"
     # rl_zoo3 saves no statistics with its best model: evaluating it is refused, not guessed.
-    assert not evaluate.model_run(run_dir / "best_model.zip")["vecnormalize"].exists()
+    best = runs.model_run(run_dir / "best_model.zip")
+    assert not best.statistics.exists() and not best.pickled_statistics.exists()
 
 
 def test_evaluation_writes_json(tmp_path):
@@ -345,9 +353,9 @@ def test_episode_chunks_match_a_serial_run():
     assert evaluate.chunks([1, 2], 5) == [[1], [2]]
     for name, seeds in (("random", [5, 6, 7]), ("scripted", [5, 6])):
         # 60 steps take the scripted policy through its approach, press and slide.
-        spec = evaluate.PolicySpec(name, name, train.DEFAULT_ENV_ID, {"max_episode_steps": 60})
-        serial = evaluate.run_episodes(spec, seeds)
-        parts = evaluate.run_episodes(spec, seeds[1:]) + evaluate.run_episodes(spec, seeds[:1])
+        spec = policies.PolicySpec(name, name, cli.DEFAULT_ENV_ID, {"max_episode_steps": 60})
+        serial = episodes.run_episodes(spec, seeds)
+        parts = episodes.run_episodes(spec, seeds[1:]) + episodes.run_episodes(spec, seeds[:1])
         assert [r.seed for r in parts] == seeds[1:] + seeds[:1]
         assert parts[-1:] + parts[:-1] == serial
 
@@ -380,12 +388,12 @@ def test_a_primitive_policy_drives_the_6d_id(tmp_path):
          "--config", str(_tiny_config(tmp_path, "ppo")), "--env-kwargs", "max_primitives:64"]
     )  # fmt: skip
     model = str(run_dir / "final_model.zip")
-    [spec] = evaluate.resolve_policies([model], env_id="tactile_gym/HingeProbe-v2")
+    [spec] = policies.resolve_policies([model], env_id="tactile_gym/HingeProbe-v2")
     assert "max_primitives" not in spec.env_kwargs
     env = gym.make("tactile_gym/HingeProbe-v2", max_steps=60)
-    policy = evaluate.make_policy(model, env)
-    assert isinstance(policy, evaluate.PrimitiveModelPolicy)
-    record = evaluate.run_episode(env, policy, seed=1000)
+    policy = policies.make_policy(model, env)
+    assert isinstance(policy, policies.PrimitiveModelPolicy)
+    record = episodes.run_episode(env, policy, seed=1000)
     assert len(record.position_error) == 61  # a 6-D action every control step
     env.close()
 
@@ -394,24 +402,25 @@ def test_an_interrupted_run_resumes_from_its_latest_checkpoint(tmp_path, capsys)
     """What a sweep does with a job whose attempt was cut off: the run continues from its
     checkpoint with its normalisation statistics and its evaluation log, to the full budget."""
     pytest.importorskip("stable_baselines3")
-    from stable_baselines3 import PPO
 
     run_dir = tmp_path / "run"
     common = dict(
-        algo="ppo", env_id=train.DEFAULT_ENV_ID, n_envs=1, eval_episodes=1,
+        algo="ppo", env_id=cli.DEFAULT_ENV_ID, n_envs=1, eval_episodes=1,
         config_path=_tiny_config(tmp_path, "ppo"), env_kwargs={"max_steps": 40},
         run_dir=run_dir, checkpoint_freq=32, eval_freq=32,
     )  # fmt: skip
     train.train(n_timesteps=64, **common)
     (run_dir / "final_model.zip").unlink()  # as if stopped after the second checkpoint
-    assert train.latest_checkpoint(run_dir).name == "rl_model_64_steps.zip"
+    assert runs.latest_checkpoint(run_dir).name == "rl_model_64_steps.zip"
     with pytest.raises(ValueError, match="already holds a run"):
         train.train(n_timesteps=96, **common)
     train.train(n_timesteps=96, resume=True, **common)
     assert "resuming from" in capsys.readouterr().out
     record = yaml.safe_load((run_dir / "config.yml").read_text())
     assert record["resumed_from"] == "checkpoints/rl_model_64_steps.zip"
-    assert PPO.load(run_dir / "final_model.zip").num_timesteps == 96
+    env = cli.make_env(cli.DEFAULT_ENV_ID)
+    assert runs.load_model(run_dir / "final_model.zip", env).num_timesteps == 96
+    env.close()
     with np.load(run_dir / "eval" / "evaluations.npz") as log:
         assert log["timesteps"].tolist() == [32, 64, 96]  # the first two kept
 
@@ -432,7 +441,7 @@ def test_fixed_seed_evaluation_plays_the_same_episodes_every_time(kind):
     seed's: the selection episodes are those of gym.make with the same seeds."""
     from stable_baselines3.common.env_util import make_vec_env
 
-    from agents.selection import FixedSeedVecEnv
+    from agents.callbacks import FixedSeedVecEnv
     from agents.vec_env import make_sb3_vec_env
 
     env_id, kwargs, seeds = "tactile_gym/HingeProbePrimitive-v1", {"max_primitives": 2}, [5, 9, 2]
@@ -499,7 +508,7 @@ def test_selection_picks_the_lowest_mean_error_on_selection_episodes(monkeypatch
     scores = {"scripted": 1.0, "a": 2.5, "b": 0.9, "c": 1.7}
     played = {}
 
-    def fake_evaluate(policies, episodes, seed, out, plot, workers):
+    def fake_evaluate(policies, episodes, seed, out, plot, workers, trust_pickle):
         played.update(policies=policies, seeds=(seed, seed + episodes - 1))
         result = {
             "env_id": "tactile_gym/HingeProbePrimitive-v2",
@@ -545,9 +554,9 @@ def test_selected_model_is_copied_ready_to_test(flat_ppo_run, tmp_path):
     copied = tmp_path / "models" / ("ppo_" + flat_ppo_run.name)
     assert record["copied_to"] == str(copied)
     chosen = copied / (record["selected"].rsplit("/", 1)[1])
-    assert train.vecnormalize_path(chosen).exists() and (copied / "config.yml").exists()
+    assert runs.statistics_path(chosen).exists() and (copied / "config.yml").exists()
     assert json.loads((copied / "selection.json").read_text()) == record
-    spec = evaluate.resolve_policies([str(chosen)])[0]
-    episodes = evaluate.run_episodes(spec, [record["seeds"][0], record["seeds"][1]])
-    replayed = evaluate.summarize(episodes)["position_mean_mm"]
+    spec = policies.resolve_policies([str(chosen)])[0]
+    played = episodes.run_episodes(spec, [record["seeds"][0], record["seeds"][1]])
+    replayed = episodes.summarize(played)["position_mean_mm"]
     assert replayed == pytest.approx(record["scores"][record["selected"]], rel=0, abs=1e-12)

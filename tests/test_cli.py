@@ -17,7 +17,18 @@ import pytest
 import yaml
 
 import tactile_gym
-from agents import aggregate, cli, evaluate, reproduce_paper, sweep, train
+from agents import (
+    aggregate,
+    cli,
+    convert_models,
+    evaluate,
+    policies,
+    reproduce_paper,
+    runs,
+    selection,
+    sweep,
+    train,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "models" / "ppo_HingeProbePrimitive-v1_s2" / "best_model.zip"
@@ -126,6 +137,21 @@ def test_a_missing_ray_names_both_installs(capsys, tmp_path, monkeypatch):
     assert 'pip install "tactile-gym[train,sweep]"' in message  # the wheel
 
 
+def test_a_missing_yaml_space_after_a_colon_is_named(capsys):
+    """``skin:{friction:0.3}`` is YAML for the key "friction:0.3" with no value: the error says
+    what was meant, not "unknown skin field"."""
+    with pytest.raises(SystemExit) as exit_info:
+        train.main(["--env-kwargs", "skin:{friction:0.3}"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "'friction:0.3' as one key with no value" in err
+    assert "YAML needs a space after a colon, as in 'skin:{friction: 0.3}'" in err
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--env-kwargs", nargs="+", action=cli.KeyValue)
+    args = parser.parse_args(["--env-kwargs", "skin:{friction: 0.3}", "max_steps:10"])
+    assert args.env_kwargs == {"skin": {"friction": 0.3}, "max_steps": 10}
+
+
 def test_key_value_arguments_explain_a_bad_pair(capsys):
     with pytest.raises(SystemExit) as exit_info:
         train.main(["--env-kwargs", "max_steps=10"])
@@ -138,11 +164,11 @@ def test_a_model_on_another_id_is_refused_naming_both(capsys, tmp_path):
     argv = ["--policies", str(MODEL), "--env", PRIMITIVE_3D, "--out", str(tmp_path)]
     _usage_error(capsys, evaluate.main, argv, PRIMITIVE, PRIMITIVE_3D, "--force")
     # --force lets it through (with a warning), and its own id and 6-D id need no force.
-    specs = evaluate.resolve_policies([str(MODEL)], PRIMITIVE_3D, force=True)
+    specs = policies.resolve_policies([str(MODEL)], PRIMITIVE_3D, force=True)
     assert specs[0].env_id == PRIMITIVE_3D
     assert "trained on" in capsys.readouterr().err
     for env_id in (PRIMITIVE, "tactile_gym/HingeProbe-v1"):
-        evaluate.resolve_policies([str(MODEL)], env_id)
+        policies.resolve_policies([str(MODEL)], env_id)
 
 
 def test_a_model_outside_its_run_folder_is_checked_by_its_spaces(capsys, tmp_path):
@@ -153,25 +179,27 @@ def test_a_model_outside_its_run_folder_is_checked_by_its_spaces(capsys, tmp_pat
 
 
 def test_the_algorithm_comes_from_the_models_zip(tmp_path):
-    assert evaluate.saved_algo(MODEL) == "ppo"
-    sac = tmp_path / "sac.zip"
-    with zipfile.ZipFile(sac, "w") as archive:
-        policy = {"__module__": "stable_baselines3.sac.policies"}
-        archive.writestr("data", json.dumps({"policy_class": policy}))
-    assert evaluate.saved_algo(sac) == "sac"
-    assert evaluate.model_run(sac)["algo"] == "sac"  # no run config beside it
-    other = tmp_path / "dqn.zip"
-    with zipfile.ZipFile(other, "w") as archive:
-        archive.writestr("data", json.dumps({"policy_class": {"__module__": "sb3.dqn"}}))
+    assert runs.saved_algo(MODEL) == "ppo"
+
+    def model_zip(name: str, module: str):
+        with zipfile.ZipFile(tmp_path / name, "w") as archive:
+            archive.writestr("data", json.dumps({"policy_class": {"__module__": module}}))
+            archive.writestr("policy.pth", b"")
+        return tmp_path / name
+
+    sac = model_zip("sac.zip", "stable_baselines3.sac.policies")
+    assert runs.saved_algo(sac) == "sac"
+    assert runs.model_run(sac).algo == "sac"  # no run config beside it
+    assert runs.saved_algo(model_zip("td3.zip", "stable_baselines3.td3.policies")) == "td3"
     with pytest.raises(ValueError, match="PPO and SAC"):
-        evaluate.saved_algo(other)
+        runs.saved_algo(model_zip("other.zip", "sb3.dqn"))
     (tmp_path / "junk.zip").write_text("not a zip")
-    with pytest.raises(ValueError, match="not a stable-baselines3 model"):
-        evaluate.saved_algo(tmp_path / "junk.zip")
+    with pytest.raises(ValueError, match="damaged or not a zip"):
+        runs.saved_algo(tmp_path / "junk.zip")
 
 
 # --------------------------------------------------------------- help (issue 19, item 5)
-@pytest.mark.parametrize("module", [train, evaluate, sweep, aggregate])
+@pytest.mark.parametrize("module", [train, evaluate, sweep, aggregate, selection, convert_models])
 def test_every_option_has_help_and_the_usage_names_the_module(module, monkeypatch, capsys):
     parsers = []
 
@@ -213,16 +241,32 @@ def test_a_closed_pipe_ends_quietly():
     assert process.returncode == 0
 
 
-def test_pybullets_start_up_lines_are_kept_out(tmp_path):
-    command = [
-        sys.executable, "-m", "agents.evaluate", "--policies", "random", "--episodes", "1",
-        "--env-kwargs", "max_steps:3", "--no-plot", "--out", str(tmp_path),
-    ]  # fmt: skip
-    result = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["agents.evaluate", "--policies", "random", "--episodes", "1", "--env-kwargs",
+          "max_steps:3", "--no-plot"], "| random | 1 |"),
+        # Two worker processes step the envs: their forkserver imports the simulator too.
+        (["agents.train", "--env", PRIMITIVE.replace("v1", "v2"), "--n-envs", "2",
+          "--env-workers", "2", "--n-timesteps", "16", "--eval-freq", "0",
+          "--checkpoint-freq", "0", "--warm-start", "demos:0", "--no-progress-bar",
+          "--hyperparams", "n_steps:8", "batch_size:8", "n_epochs:1",
+          "--env-kwargs", "max_primitives:2"], "run saved in"),
+    ],
+    ids=["evaluate", "train-with-workers"],
+)  # fmt: skip
+def test_pybullets_start_up_lines_are_kept_out(tmp_path, argv, expected):
+    where = (
+        ["--out", str(tmp_path)]
+        if argv[0] == "agents.evaluate"
+        else ["--log-folder", str(tmp_path)]
+    )
+    command = [sys.executable, "-m", *argv, *where]
+    result = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     output = result.stdout + result.stderr
     assert "pybullet build time" not in output and "argv[0]=" not in output, output
-    assert "| random | 1 |" in result.stdout
+    assert expected in result.stdout
 
 
 def test_progress_lines_report_the_end_once(capsys):

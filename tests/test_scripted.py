@@ -61,3 +61,34 @@ def test_scripted_meets_the_targets_on_held_out_seeds(env_id):
     else:
         assert position <= SPATIAL_MEDIAN
         assert np.median([i["angle_error"] for i in infos]) <= SPATIAL_ANGLE
+
+
+def _final_errors(env, policy, seed: int) -> tuple[float, float, int]:
+    """One episode without ``policy.reset()``; its final errors and measurements."""
+    obs, info = env.reset(seed=seed)
+    done = False
+    while not done:
+        obs, _, terminated, truncated, info = env.step(policy.get_action(obs))
+        done = terminated or truncated
+    return info["position_error"], info["angle_error"], info["n_measurements"]
+
+
+@pytest.mark.parametrize(
+    "env_id, kwargs",
+    [
+        # 150 control steps: some 6 presses and turns, enough to carry state over.
+        ("tactile_gym/HingeProbePrimitive-v2", {"max_steps": 150, "observation_mode": "flat"}),
+        ("tactile_gym/HingeProbe-v2", {"max_steps": 120}),
+    ],
+)
+def test_one_policy_plays_many_episodes_without_reset(env_id, kwargs):
+    """The policy notices each new episode from its first observation (issue 25): reused
+    over 10 episodes, never reset, it ends each as a fresh policy does, exactly."""
+    env = gym.make(env_id, **kwargs)
+    reused = scripted_policy(env)
+    seeds = range(1000, 1010)
+    again = [_final_errors(env, reused, seed) for seed in seeds]
+    fresh = [_final_errors(env, scripted_policy(env), seed) for seed in seeds]
+    env.close()
+    assert again == fresh
+    assert len({errors for errors in fresh}) == len(fresh)  # ten different episodes

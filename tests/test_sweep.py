@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import tactile_gym
-from agents import aggregate, evaluate, sweep
+from agents import aggregate, cli, evaluate, sweep
 from tactile_gym.presets import preset_names
 
 ENV_ID = tactile_gym.ENV_IDS[0]
@@ -56,9 +56,7 @@ def _fake_run(root, algo, seed, position_mm, success, steps_to_5mm, env_id=ENV_I
         "steps_to_5mm_mean": steps_to_5mm,
     }
     evaluation = {"summaries": {f"{run_dir.name}/final_model": summary}}
-    (run_dir / "evaluation" / "evaluation.json").write_text(
-        json.dumps(evaluate.json_safe(evaluation))
-    )
+    (run_dir / "evaluation" / "evaluation.json").write_text(json.dumps(cli.json_safe(evaluation)))
     eval_dir = run_dir / "eval"
     eval_dir.mkdir()
     results = np.array([[1.0, 3.0], [2.0, 4.0]]) + seed  # two evaluations of two episodes

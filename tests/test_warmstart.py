@@ -107,7 +107,7 @@ def test_recipe_is_read_per_id_and_checked(tmp_path):
             WarmStart.from_mapping(bad)
 
 
-def test_training_with_a_warm_start_records_it(tmp_path):
+def test_training_with_a_warm_start_records_it(tmp_path, capsys):
     from agents import train
 
     run = train.train(
@@ -123,5 +123,12 @@ def test_training_with_a_warm_start_records_it(tmp_path):
     stats = yaml.safe_load((run / "warm_start.yml").read_text())
     assert stats["episodes"] == 2 and stats["seeds"] == [100_000, 100_001]
     assert (run / "demos.npz").exists()
+    # It says what it does while it records, and sums up in words, not as a dict.
+    out = capsys.readouterr().out
+    assert "recording 2 episodes of the scripted policy" in out
+    assert "2/2 demonstrations (100 %)" in out
+    assert "policy cloned: 2 epochs, loss" in out and "critic fitted: 2 epochs" in out
+    assert "{" not in out
+    assert "trained ppo on" in out and f"run saved in {run}" in out
     with pytest.raises(ValueError, match="ppo only"):
         train.train("sac", ENV_ID, warm_start={"demos": 2}, log_folder=tmp_path)

@@ -1,0 +1,130 @@
+"""What ``agents.train`` hands stable-baselines3 while it learns (``docs/design.md`` 12):
+the periodic evaluation on fixed episodes and the checkpoints, each model saved with its
+``VecNormalize`` statistics as JSON (``agents.runs``).
+
+SB3's periodic evaluation plays episodes drawn afresh at each evaluation, so the difference
+between two evaluations is mostly the difference between their episodes (the prior's error,
+which no policy sees, explains most of a return's variance). :class:`FixedSeedVecEnv` makes
+every evaluation play the same episodes: each ``reset()`` starts over at the first seed of
+its list, and each episode that ends is followed by the next seed's, so ``n`` episodes after
+a reset are always ``seeds[0] .. seeds[n - 1]``, the same episodes ``agents.evaluate`` plays
+on those seeds.
+
+Stable-Baselines3 is only in the ``[train]`` extra, so only ``agents`` imports this module.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+
+from .runs import save_statistics, statistics_path
+
+__all__ = ["Checkpoints", "FixedSeedVecEnv", "continue_evaluations", "fixed_seed_evaluation"]
+
+
+class FixedSeedVecEnv(VecEnvWrapper):
+    """A one-env ``VecEnv`` whose episodes follow a fixed list of reset seeds (module
+    docstring).
+
+    Args:
+        venv: a ``VecEnv`` of one env.
+        seeds: the reset seeds, in order; the list repeats once exhausted.
+
+    Raises:
+        ValueError: a ``venv`` of more than one env, or no seeds.
+    """
+
+    def __init__(self, venv: VecEnv, seeds: Sequence[int]) -> None:
+        if venv.num_envs != 1:
+            raise ValueError(f"FixedSeedVecEnv needs a VecEnv of 1 env, got {venv.num_envs}")
+        if len(seeds) == 0:
+            raise ValueError("FixedSeedVecEnv needs at least one seed")
+        super().__init__(venv)
+        self.seeds = [int(s) for s in seeds]
+        self.episode = 0
+
+    def _reset_to(self, episode: int) -> np.ndarray:
+        self.episode = episode
+        self.venv.seed(self.seeds[episode % len(self.seeds)])
+        return self.venv.reset()
+
+    def reset(self):
+        return self._reset_to(0)
+
+    def step_wait(self):
+        obs, rewards, dones, infos = self.venv.step_wait()
+        if dones[0]:
+            # The inner env has already reset itself unseeded: start the next seed instead
+            # (the ended episode's last observation stays in the info).
+            obs = self._reset_to(self.episode + 1)
+        return obs, rewards, dones, infos
+
+
+def fixed_seed_evaluation(
+    eval_env, episodes: int, eval_freq: int, run_dir: Path, statistics_file: Path | None
+) -> EvalCallback:
+    """SB3's ``EvalCallback`` on an env wrapped in :class:`FixedSeedVecEnv`: ``episodes``
+    episodes every ``eval_freq`` calls, the best model saved in ``run_dir`` with, where given,
+    its ``VecNormalize`` statistics in ``statistics_file`` (JSON, ``agents.runs``)."""
+    return EvalCallback(
+        eval_env,
+        n_eval_episodes=episodes,
+        eval_freq=eval_freq,
+        best_model_save_path=str(run_dir),
+        log_path=str(run_dir / "eval"),
+        deterministic=True,
+        callback_on_new_best=_SaveStatistics(statistics_file) if statistics_file else None,
+    )
+
+
+class _SaveStatistics(BaseCallback):
+    """Saves the training statistics with a new best model (the ones its evaluation used)."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__()
+        self.path = path
+
+    def _on_step(self) -> bool:
+        vec_normalize = self.model.get_vec_normalize_env()
+        if vec_normalize is not None:
+            save_statistics(vec_normalize, self.path)
+        return True
+
+
+class Checkpoints(CheckpointCallback):
+    """SB3's ``CheckpointCallback`` with each checkpoint's ``VecNormalize`` statistics saved
+    beside it as JSON (``agents.runs.statistics_path``), not pickled.
+
+    Args:
+        save_freq: calls (env steps / envs) between checkpoints.
+        save_path: the folder of ``rl_model_<n>_steps.zip``.
+    """
+
+    def __init__(self, save_freq: int, save_path: str | Path) -> None:
+        super().__init__(save_freq=save_freq, save_path=str(save_path))
+
+    def _on_step(self) -> bool:
+        if self.n_calls % self.save_freq == 0:
+            vec_normalize = self.model.get_vec_normalize_env()
+            if vec_normalize is not None:
+                model_path = self._checkpoint_path(extension="zip")
+                save_statistics(vec_normalize, statistics_path(model_path))
+        return super()._on_step()
+
+
+def continue_evaluations(callback: EvalCallback, log: Path) -> None:
+    """Give a resumed run's ``EvalCallback`` the evaluations made before the interruption,
+    so that its log and its best model carry on rather than start again."""
+    if not log.exists():
+        return
+    with np.load(log) as data:
+        callback.evaluations_timesteps = data["timesteps"].tolist()
+        callback.evaluations_results = data["results"].tolist()
+        callback.evaluations_length = data["ep_lengths"].tolist()
+    if callback.evaluations_results:
+        callback.best_mean_reward = float(np.max(np.mean(callback.evaluations_results, axis=1)))
