@@ -18,6 +18,7 @@ as the package writes them.
 
 from __future__ import annotations
 
+import ast
 import importlib
 import importlib.util
 import inspect
@@ -54,15 +55,26 @@ ENV_FAMILIES = (
     ),
 )
 
-#: The packages of the API reference, each on its own page, in the order of the index.
-API_PACKAGES = (
-    ("tactile_gym", "The package: ids, 3-vectors, rotations, presets, validation"),
-    ("tactile_gym.sensing", "Sensing (NumPy only)"),
-    ("tactile_gym.estimation", "Estimation (NumPy and SciPy only)"),
-    ("tactile_gym.sim", "Simulation (PyBullet)"),
-    ("tactile_gym.envs", "Environments"),
-    ("agents", "Agents (the commands; tactile_gym.agents when installed)"),
-)
+#: The roots of the API reference: each package below them gets its own page, in this order
+#: and then by name (a subpackage added later needs no edit here).
+API_ROOTS = ("tactile_gym", "agents")
+#: The title of a root's page; a subpackage's page is titled by its name.
+API_TITLES = {
+    "tactile_gym": "tactile_gym: ids, 3-vectors, rotations, presets, validation",
+    "agents": "agents: the commands (tactile_gym.agents when installed)",
+}
+
+
+def api_packages() -> list[str]:
+    """Every package of the API reference: the roots and the packages below them."""
+    packages = []
+    for root in API_ROOTS:
+        packages.append(root)
+        module = importlib.import_module(root)
+        for info in pkgutil.walk_packages(module.__path__, prefix=f"{root}."):
+            if info.ispkg and not info.name.rpartition(".")[2].startswith("_"):
+                packages.append(info.name)
+    return packages
 
 
 def _load(spec: str):
@@ -223,14 +235,13 @@ def env_page(family: EnvFamily, documented: set[str]) -> str:
 # --- the API reference ------------------------------------------------------------------------
 
 
-def package_modules(package: str) -> list[str]:
-    """The package and its modules, without the subpackages that have their own page and the
-    deprecated aliases (their docstring says so; importing them warns)."""
+def package_modules(package: str, packages: list[str]) -> list[str]:
+    """The package and its modules, without its subpackages (they have their own page) and
+    the deprecated aliases (their docstring says so; importing them warns)."""
     root = importlib.import_module(package)
     names = [package]
-    own_pages = {p for p, _ in API_PACKAGES}
-    for info in pkgutil.iter_modules(getattr(root, "__path__", []), prefix=f"{package}."):
-        if info.name in own_pages:
+    for info in pkgutil.iter_modules(root.__path__, prefix=f"{package}."):
+        if info.name in packages:
             continue
         spec = importlib.util.find_spec(info.name)
         source = Path(spec.origin).read_text() if spec and spec.origin else ""
@@ -240,23 +251,24 @@ def package_modules(package: str) -> list[str]:
     return names
 
 
-def api_page(package: str, title: str) -> str:
+def api_page(package: str, modules: list[str]) -> str:
     """A package's page: its own docstring and what its ``__init__`` defines (what it
     re-exports is documented where it is defined), then each module with its members."""
+    title = API_TITLES.get(package, f"`{package}`")
     lines = [f"# {title}", "", GENERATED_NOTE.format(source=f"the docstrings of {package}"), ""]
-    for i, module in enumerate(package_modules(package)):
+    for i, module in enumerate(modules):
         options = ["   :members:"] + (["   :ignore-module-all:"] if i == 0 else [])
         heading = [f"## `{module}`", ""] if i else []
         lines += [*heading, "```{eval-rst}", f".. automodule:: {module}", *options, "```", ""]
     return "\n".join(lines)
 
 
-def api_index() -> str:
+def api_index(packages: list[str]) -> str:
     return "\n".join(
         [
             "# API reference",
             "",
-            GENERATED_NOTE.format(source="API_PACKAGES in docs/_ext/tactile_docs.py"),
+            GENERATED_NOTE.format(source="API_ROOTS in docs/_ext/tactile_docs.py"),
             "",
             "Generated from the docstrings (Google style), one page per package. A name that a"
             " package re-exports (`tactile_gym.sensing.SensorConfig`) is documented in the"
@@ -265,7 +277,7 @@ def api_index() -> str:
             "```{toctree}",
             ":maxdepth: 1",
             "",
-            *(package for package, _ in API_PACKAGES),
+            *packages,
             "```",
             "",
         ]
@@ -285,12 +297,17 @@ def generate(app=None) -> None:
     from agents.cli import import_pybullet_quietly
 
     import_pybullet_quietly()  # the build's output is its own, without PyBullet's banner
-    documented = {m for package, _ in API_PACKAGES for m in package_modules(package)}
-    for family in ENV_FAMILIES:
-        _write(DOCS / "envs" / f"{family.page}.md", env_page(family, documented))
-    for package, title in API_PACKAGES:
-        _write(DOCS / "api" / f"{package}.md", api_page(package, title))
-    _write(DOCS / "api" / "index.md", api_index())
+    packages = api_packages()
+    modules = {package: package_modules(package, packages) for package in packages}
+    documented = {m for names in modules.values() for m in names}
+    pages = {DOCS / "envs" / f"{f.page}.md": env_page(f, documented) for f in ENV_FAMILIES}
+    pages.update({DOCS / "api" / f"{p}.md": api_page(p, modules[p]) for p in packages})
+    pages[DOCS / "api" / "index.md"] = api_index(packages)
+    for folder in ("envs", "api"):  # pages of what is gone go too
+        for stale in set((DOCS / folder).glob("*.md")) - set(pages):
+            stale.unlink()
+    for path, text in pages.items():
+        _write(path, text)
 
 
 # --- docstrings as the package writes them ---------------------------------------------------
@@ -348,17 +365,33 @@ def docstring_hook(app, what, name, obj, options, lines) -> None:
     lines[:] = escape_bars(literal_commands([_RELATIVE_MODULE.sub(relative, s) for s in lines]))
 
 
+def _factory_text(factory) -> str:
+    """A ``default_factory`` as Python: the call of a named factory (``dict()``), else the
+    repr of what it makes, when that parses; ``...`` otherwise."""
+    name = getattr(factory, "__name__", "<lambda>")
+    if name.isidentifier():
+        return f"{name}()"
+    try:
+        text = " ".join(repr(factory()).split())
+        ast.parse(text, mode="eval")
+    except Exception:  # a factory that fails or makes something without a Python repr
+        return "..."
+    return text
+
+
 def factory_defaults(app, what, name, obj, options, signature, return_annotation):
-    """A dataclass field's ``default_factory`` as the call that makes it (``dict()``), not
-    ``<factory>``, which is no Python and makes Sphinx split the signature at every comma."""
+    """A dataclass field's ``default_factory`` as Python (``dict()``), not ``<factory>``,
+    which makes Sphinx split the signature at every comma."""
     fields = getattr(obj, "__dataclass_fields__", None)
     if not signature or "<factory>" not in signature or not fields:
         return None
     for field_name, spec in fields.items():
-        factory = getattr(spec.default_factory, "__name__", None)
-        if factory:
+        if callable(spec.default_factory):
+            text = _factory_text(spec.default_factory)
             signature = re.sub(
-                rf"\b({field_name}(?:: [^=]+?)?) ?= ?<factory>", rf"\1={factory}()", signature
+                rf"\b({field_name}(?:: [^=]+?)?) ?= ?<factory>",
+                lambda m, text=text: f"{m.group(1)}={text}",
+                signature,
             )
     return signature, return_annotation
 
