@@ -9,7 +9,12 @@
 # The set-up is redone only when pyproject.toml changes (a stamp file in .venv), so a second
 # run starts at once. `make setup` does the set-up alone; `make run ARGS="--trials 30"` passes
 # arguments to the main command; `make clean` removes .venv.
-
+#
+#   make docs   # the documentation site, docs/ -> docs/_build/html
+#
+# It adds the [docs] extra to the same .venv (its own stamp) and builds from scratch (-E, so
+# every page's warnings show every time) with warnings as errors (-W --keep-going: all of them
+# listed before it fails) and every cross-reference checked (-n). SPHINXOPTS adds options.
 PYTHON ?= python3
 VENV ?= .venv
 EXTRAS ?= train,test,clients
@@ -18,15 +23,21 @@ comma := ,
 TORCH := torch==2.13.0
 TORCH_CPU_INDEX := https://download.pytorch.org/whl/cpu
 STAMP := $(VENV)/.installed-$(subst $(comma),-,$(EXTRAS))
+DOCS_STAMP := $(STAMP)-docs
 BIN := $(VENV)/bin
+SPHINXOPTS ?=
 
-.PHONY: run test setup clean
+.PHONY: run test docs setup clean
 
 run: $(STAMP)
 	$(BIN)/python -m agents.reproduce_paper $(ARGS)
 
 test: $(STAMP)
 	. $(BIN)/activate && ruff check . && ruff format --check . && python -m pytest $(ARGS)
+
+docs: $(DOCS_STAMP)
+	$(BIN)/python -m sphinx -b html -E -W --keep-going -n -q $(SPHINXOPTS) docs docs/_build/html
+	@echo "built docs/_build/html/index.html"
 
 setup: $(STAMP)
 
@@ -38,6 +49,10 @@ $(STAMP): pyproject.toml
 		--index-url $(TORCH_CPU_INDEX) \
 		|| $(BIN)/python -m pip install --quiet $(TORCH)
 	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS)]"
+	touch $@
+
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS),docs]"
 	touch $@
 
 clean:

@@ -8,21 +8,21 @@ episodes seeded ``DEMO_SEED + k`` (``agents.seeds``) and writes ``<out>/<Name>.n
 is plain NumPy, one row per env step (:data:`STEP_FIELDS`) or per episode
 (:data:`EPISODE_FIELDS`):
 
-======================  ==========  =====================================================
-key                     shape       meaning
-======================  ==========  =====================================================
-``obs.<name>``          (T, ...)    dict observations, one array per key, before each step
-``obs``                 (T, n)      flat observations (``observation_mode="flat"``) instead
-``acts``                (T, A)      the actions taken (the env's action space)
-``rews``                (T,)        rewards
-``terminated``          (T,)        the step ended the episode as a failure
-``truncated``           (T,)        the step ended the episode by the step budget
-``episode``             (T,)        index of the step's episode
-``seeds``               (E,)        reset seed of each episode
-``final_position_error`` (E,)       m, at the episode's end (``info``)
-``success``             (E,)        ``info["is_success"]`` at the end
-``meta``                ()          JSON: env id, ``gym.make`` keywords, policy
-======================  ==========  =====================================================
+========================  ==========  =====================================================
+key                       shape       meaning
+========================  ==========  =====================================================
+``obs.<name>``            (T, ...)    dict observations, one array per key, before each step
+``obs``                   (T, n)      flat observations (``observation_mode="flat"``) instead
+``acts``                  (T, A)      the actions taken (the env's action space)
+``rews``                  (T,)        rewards
+``terminated``            (T,)        the step ended the episode as a failure
+``truncated``             (T,)        the step ended the episode by the step budget
+``episode``               (T,)        index of the step's episode
+``seeds``                 (E,)        reset seed of each episode
+``final_position_error``  (E,)        m, at the episode's end (``info``)
+``success``               (E,)        ``info["is_success"]`` at the end
+``meta``                  ()          JSON: env id, ``gym.make`` keywords, policy
+========================  ==========  =====================================================
 
 The ``imitation`` library's trajectory format was the alternative; its release pins
 Gymnasium 0.29 and Stable-Baselines3 2.2, below this package's (design notes, Learning).

@@ -74,7 +74,7 @@ def installed(tmp_path_factory):
     return python, outside, wheel
 
 
-def test_the_wheel_holds_the_package_its_agents_and_presets(installed):
+def test_the_wheel_holds_the_package_its_agents_presets_and_types(installed):
     *_, wheel = installed
     names = zipfile.ZipFile(wheel).namelist()
     tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")}
@@ -82,6 +82,9 @@ def test_the_wheel_holds_the_package_its_agents_and_presets(installed):
     for kind in ("env", "objects", "train", "sweeps"):
         assert any(n.startswith(f"tactile_gym/configs/{kind}/") for n in names), kind
     assert "tactile_gym/agents/reproduce_paper.py" in names
+    # PEP 561: type checkers read the package's annotations; the licence travels with it.
+    assert "tactile_gym/py.typed" in names
+    assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names), names
 
 
 CHECK = """

@@ -102,8 +102,8 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
     |                | direction (3-5)   | axis direction                          | -    | world  |
     |                | position_std (6)  | 1-sigma position uncertainty (0..1)     | m    | -      |
     |                | angle_std (7)     | 1-sigma angle uncertainty (0..pi)       | rad  | -      |
-    | last_          | point (0-2)       | contact point of the last measurement   | m    | world  |
-    | measurement    | edge (3-5)        | its edge direction, oriented physically | -    | world  |
+    | last_measurement | point (0-2)     | contact point of the last measurement   | m    | world  |
+    |                | edge (3-5)        | its edge direction, oriented physically | -    | world  |
     |                | edge_std (6)      | its RMS edge error (pi/2: none yet)     | rad  | -      |
     | progress       | span (0)          | span of the measured edge directions    | rad  | -      |
     |                | directions (1)    | distinct edge directions (0..1e4)       | -    | -      |

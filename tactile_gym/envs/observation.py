@@ -157,7 +157,7 @@ class ContactObs(ObservationGroup):
 
     @classmethod
     def from_touch(cls, touch: Any) -> ContactObs:
-        """The entries of a ``Touch`` (``tactile_gym.sensing.probing``)."""
+        """The entries of a ``Touch`` (``tactile_gym.sensing.probing.Touch``)."""
         zeros = np.zeros(3)
         if not touch.valid:
             return cls(0.0, zeros, zeros, zeros, NO_EDGE, 0.0)
