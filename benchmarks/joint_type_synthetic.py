@@ -1,0 +1,216 @@
+"""The joint-type estimator on synthetic draws: confusion, false confidence, cost.
+
+Run: ``python benchmarks/joint_type_synthetic.py`` (``--help`` for the options). The draws
+are ``tests/joint_type_cases.py``'s: a link's face (60-120 mm by 20-40 mm) moved by a
+rigid, revolute or prismatic joint (planar: on the table, a vertical axis or a slide in the
+table plane; 3D: all at random angles), two edges pressed at each configuration (the long
+edge and the end edge), the contact anywhere along the edge's middle, the env's noise
+(contact point 1 mm per axis, edge 1-3 deg drawn per draw). ``--motion`` scales the joint's
+sweep over the configurations: 1.0 is 90 deg or 60 mm. The estimator runs with its default
+priors (docs/design.md 6.9) and the Laplace rule, and with BIC for comparison.
+
+Prints, per mode:
+
+1. by number of configurations and motion: the accuracy (the most probable outcome is the
+   true type), the false-confidence rate (a wrong outcome with probability above 0.9) and
+   the median time of one estimate from scratch;
+2. the confusion matrix over all settings (rows: truth; columns: most probable outcome);
+3. the false-confidence rate of the two rules on the same draws, and on slides along the
+   only measured edge (which no rule can tell from a rigid link);
+4. the cost of one estimate against ``JointAxisEstimator``'s on the same measurements, in
+   the same run;
+
+then the drawer reproduction (issue 28 item 5, the paper's Table I for a prismatic joint):
+the direction's mean error from the edge lines and from the contact points, with the
+contact sliding along the edges and not.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+# Measure the checkout this file is in, and use the tests' ground truth.
+_ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(_ROOT))
+sys.path.insert(0, str(_ROOT / "tests"))
+
+from joint_type_cases import JOINT_TYPES, Face, Joint, press, scenario  # noqa: E402
+
+from tactile_gym.estimation import (  # noqa: E402
+    OUTCOMES,
+    JointAxisEstimator,
+    estimate_joint_type,
+    fit_slide_direction,
+    fit_slide_simple,
+    slide_error,
+)
+
+CONFIDENT = 0.9
+
+
+def _estimate(p, mode: str, rule: str = "laplace"):
+    return estimate_joint_type(
+        p.points,
+        p.edges,
+        p.point_std,
+        p.edge_std,
+        lines=p.lines,
+        configs=p.configs,
+        mode=mode,
+        rule=rule,
+    )
+
+
+def _false(probs: np.ndarray, truth: int) -> bool:
+    return bool(np.delete(probs, truth).max() > CONFIDENT)
+
+
+def sweep(mode: str, configs: list[int], motions: list[float], draws: int, seed: int):
+    """Per setting: (n_configs, motion, accuracy, false rate, BIC false rate, median ms);
+    and the confusion matrix over all of them."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    confusion = np.zeros((3, len(OUTCOMES)), dtype=int)
+    for n_configs in configs:
+        for motion in motions:
+            right = false = false_bic = 0
+            times = []
+            for _ in range(draws):
+                for i, kind in enumerate(JOINT_TYPES):
+                    sigma_e = math.radians(float(rng.uniform(1.0, 3.0)))
+                    _, _, p = scenario(rng, kind, mode == "planar", n_configs, motion, 2, sigma_e)
+                    t = time.perf_counter()
+                    probs = _estimate(p, mode).probabilities
+                    times.append(time.perf_counter() - t)
+                    best = int(np.argmax(probs))
+                    confusion[i, best] += 1
+                    right += best == i
+                    false += _false(probs, i)
+                    false_bic += _false(_estimate(p, mode, "bic").probabilities, i)
+            n = 3 * draws
+            rows.append(
+                (n_configs, motion, right / n, false / n, false_bic / n, 1e3 * np.median(times))
+            )
+    return rows, confusion
+
+
+def slides_along_the_edge(mode: str, draws: int, seed: int) -> tuple[float, float]:
+    """False-confidence rate of both rules on slides along the only measured edge (the
+    long edge, 5 configurations, 50 mm): rigid above 0.9 is a wrong, confident answer."""
+    rng = np.random.default_rng(seed)
+    face = Face(np.array([0.0, 0.0, 0.05]), np.eye(3)[0], np.eye(3)[1], (0.05, 0.015))
+    slide = Joint("prismatic", np.eye(3)[0])
+    out = []
+    for rule in ("laplace", "bic"):
+        false = 0
+        for _ in range(draws):
+            p = press(rng, face, slide, np.linspace(0.0, 0.05, 5), [[0]] * 5)
+            false += _false(_estimate(p, mode, rule).probabilities, 2)
+        out.append(false / draws)
+    return out[0], out[1]
+
+
+def cost_ratio(mode: str, draws: int, seed: int) -> tuple[float, float, float]:
+    """Median time of one estimate from scratch, of JointAxisEstimator's on the primary
+    line's measurements (what the revolute model feeds it), and their ratio."""
+    rng = np.random.default_rng(seed)
+    ours, axis = [], []
+    for _ in range(draws):
+        _, _, p = scenario(rng, "revolute", mode == "planar", 6, 1.0, 2)
+        t = time.perf_counter()
+        _estimate(p, mode)
+        ours.append(time.perf_counter() - t)
+        t = time.perf_counter()
+        est = JointAxisEstimator(mode)
+        for x, e in zip(p.points[p.lines == 0], p.edges[p.lines == 0]):
+            est.add(x, e, p.point_std, p.edge_std)
+        est.estimate()
+        axis.append(time.perf_counter() - t)
+    a, b = float(np.median(ours)), float(np.median(axis))
+    return 1e3 * a, 1e3 * b, a / b
+
+
+def drawer(trials: int, seed: int) -> list[tuple[str, float, float]]:
+    """The drawer's direction (a 300 x 200 mm top pulled along its sides at a random yaw,
+    four displacements 10 mm apart, its front and a side edge pressed at each), mean error
+    in degrees of the proposed and the simple method, per contact case."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for slide in (True, False):
+        prop, simple = [], []
+        for _ in range(trials):
+            yaw = rng.uniform(-math.pi, math.pi)
+            ex = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+            ey = np.array([-ex[1], ex[0], 0.0])
+            face = Face(np.array([0.1, 0.2, 0.15]), ex, ey, (0.15, 0.1))
+            p = press(
+                rng, face, Joint("prismatic", ey), np.arange(4) * 0.01, [[0, 3]] * 4, slide=slide
+            )
+            est = fit_slide_direction(
+                p.points,
+                p.edges,
+                p.point_std,
+                p.edge_std,
+                lines=p.lines,
+                configs=p.configs,
+                planar=True,
+            )
+            prop.append(math.degrees(slide_error(est, ey)))
+            simple_est = fit_slide_simple(p.points, lines=p.lines, planar=True)
+            simple.append(math.degrees(slide_error(simple_est, ey)))
+        case = "contact slides" if slide else "contact fixed"
+        out.append((case, float(np.mean(prop)), float(np.mean(simple))))
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--draws", type=int, default=30, help="draws per type and setting")
+    parser.add_argument("--configs", type=int, nargs="+", default=[2, 4, 6])
+    parser.add_argument("--motions", type=float, nargs="+", default=[0.1, 0.3, 1.0])
+    parser.add_argument("--modes", nargs="+", default=["planar", "3d"])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--drawer-trials", type=int, default=200)
+    args = parser.parse_args(argv)
+    for mode in args.modes:
+        rows, confusion = sweep(mode, args.configs, args.motions, args.draws, args.seed)
+        print(f"\n### {mode}: {args.draws} draws per type and setting\n")
+        print("| configurations | motion | accuracy | false > 0.9 | BIC false > 0.9 | ms |")
+        print("| ---: | ---: | ---: | ---: | ---: | ---: |")
+        for n_configs, motion, acc, false, false_bic, ms in rows:
+            print(
+                f"| {n_configs} | {motion:g} | {100 * acc:.1f} % | {100 * false:.1f} % | "
+                f"{100 * false_bic:.1f} % | {ms:.0f} |"
+            )
+        total = len(rows) * 3 * args.draws
+        false_all = sum(r[3] for r in rows) * 3 * args.draws
+        bic_all = sum(r[4] for r in rows) * 3 * args.draws
+        print(f"\nconfusion (rows: truth; columns: {', '.join(OUTCOMES)}), all settings:\n")
+        for kind, row in zip(JOINT_TYPES, confusion):
+            print(f"    {kind:9s} " + " ".join(f"{v:5d}" for v in row))
+        along = slides_along_the_edge(mode, args.draws, args.seed + 1)
+        print(
+            f"\nfalse > 0.9, all settings: Laplace {100 * false_all / total:.1f} %, "
+            f"BIC {100 * bic_all / total:.1f} % of {total}; slides along the only edge: "
+            f"Laplace {100 * along[0]:.0f} %, BIC {100 * along[1]:.0f} % of {args.draws}"
+        )
+        ours, axis, ratio = cost_ratio(mode, args.draws, args.seed + 2)
+        print(
+            f"one estimate from scratch (12 presses): {ours:.1f} ms; JointAxisEstimator on "
+            f"its 6: {axis:.1f} ms; ratio {ratio:.1f}"
+        )
+    print(f"\n### drawer: {args.drawer_trials} trials per case, mean direction error\n")
+    print("| contact | edge lines (proposed) | contact points (simple) |")
+    print("| --- | ---: | ---: |")
+    for case, prop, simple in drawer(args.drawer_trials, args.seed + 3):
+        print(f"| {case} | {prop:.2f} deg | {simple:.2f} deg |")
+
+
+if __name__ == "__main__":
+    main()
