@@ -12,13 +12,15 @@ priors (docs/design.md 6.9) and the Laplace rule, and with BIC for comparison.
 Prints, per mode:
 
 1. by number of configurations and motion: the accuracy (the most probable outcome is the
-   true type), the false-confidence rate (a wrong outcome with probability above 0.9) and
-   the median time of one estimate from scratch;
+   true type), the false-confidence rate (a wrong outcome with probability above 0.9), the
+   same among the estimates that carry no flag, the share flagged, BIC's false-confidence
+   rate, and the median time of one estimate from scratch;
 2. the confusion matrix over all settings (rows: truth; columns: most probable outcome);
 3. the false-confidence rate of the two rules on the same draws, and on slides along the
    only measured edge (which no rule can tell from a rigid link);
 4. the cost of one estimate against ``JointAxisEstimator``'s on the same measurements, in
-   the same run;
+   the same run, and the models' solver against ``scipy.optimize.least_squares`` on the
+   same problems from the same starts (docs/design.md 6.9 says why the own solver);
 
 then the drawer reproduction (issue 28 item 5, the paper's Table I for a prismatic joint):
 the direction's mean error from the edge lines and from the contact points, with the
@@ -41,15 +43,20 @@ sys.path.insert(0, str(_ROOT))
 sys.path.insert(0, str(_ROOT / "tests"))
 
 from joint_type_cases import JOINT_TYPES, Face, Joint, press, scenario  # noqa: E402
+from scipy.optimize import least_squares  # noqa: E402
 
 from tactile_gym.estimation import (  # noqa: E402
     OUTCOMES,
     JointAxisEstimator,
+    JointTypeEstimator,
+    PrismaticModel,
+    RevoluteModel,
     estimate_joint_type,
     fit_slide_direction,
     fit_slide_simple,
     slide_error,
 )
+from tactile_gym.estimation.joint_models import minimise  # noqa: E402
 
 CONFIDENT = 0.9
 
@@ -72,30 +79,42 @@ def _false(probs: np.ndarray, truth: int) -> bool:
 
 
 def sweep(mode: str, configs: list[int], motions: list[float], draws: int, seed: int):
-    """Per setting: (n_configs, motion, accuracy, false rate, BIC false rate, median ms);
-    and the confusion matrix over all of them."""
+    """Per setting: (n_configs, motion, accuracy, false rate, false rate without flags,
+    flagged share, BIC false rate, median ms); and the confusion matrix over all of them."""
     rng = np.random.default_rng(seed)
     rows = []
     confusion = np.zeros((3, len(OUTCOMES)), dtype=int)
     for n_configs in configs:
         for motion in motions:
-            right = false = false_bic = 0
+            right = false = false_bic = false_clean = flagged = 0
             times = []
             for _ in range(draws):
                 for i, kind in enumerate(JOINT_TYPES):
                     sigma_e = math.radians(float(rng.uniform(1.0, 3.0)))
                     _, _, p = scenario(rng, kind, mode == "planar", n_configs, motion, 2, sigma_e)
                     t = time.perf_counter()
-                    probs = _estimate(p, mode).probabilities
+                    est = _estimate(p, mode)
                     times.append(time.perf_counter() - t)
+                    probs = est.probabilities
                     best = int(np.argmax(probs))
                     confusion[i, best] += 1
                     right += best == i
                     false += _false(probs, i)
+                    flagged += bool(est.flags)
+                    false_clean += _false(probs, i) and not est.flags
                     false_bic += _false(_estimate(p, mode, "bic").probabilities, i)
             n = 3 * draws
             rows.append(
-                (n_configs, motion, right / n, false / n, false_bic / n, 1e3 * np.median(times))
+                (
+                    n_configs,
+                    motion,
+                    right / n,
+                    false / n,
+                    false_clean / n,
+                    flagged / n,
+                    false_bic / n,
+                    1e3 * np.median(times),
+                )
             )
     return rows, confusion
 
@@ -134,6 +153,48 @@ def cost_ratio(mode: str, draws: int, seed: int) -> tuple[float, float, float]:
         axis.append(time.perf_counter() - t)
     a, b = float(np.median(ours)), float(np.median(axis))
     return 1e3 * a, 1e3 * b, a / b
+
+
+def solvers(mode: str, draws: int, seed: int) -> tuple[float, float, float]:
+    """Median time of the models' solver and of least_squares (trust region, the same
+    residuals with the priors' rows appended, same Jacobian and start) over the prismatic
+    and revolute solves of revolute draws, and the largest relative gap in their final
+    costs."""
+    rng = np.random.default_rng(seed)
+    ours, scipy_times, gap = [], [], 0.0
+    for _ in range(draws):
+        _, _, p = scenario(rng, "revolute", mode == "planar", 6, 1.0, 2)
+        est = JointTypeEstimator(mode)
+        for x, e, line, config in zip(p.points, p.edges, p.lines, p.configs):
+            est.add(x, e, p.point_std, p.edge_std, line=int(line), config=int(config))
+        data = est.data
+        revolute = RevoluteModel(mode)
+        axis = revolute._axis(data)
+        revolute._axis_prior = revolute._axis_fit.prior
+        u = axis.direction if mode == "3d" else np.eye(3)[2]
+        prismatic = PrismaticModel(mode)
+        for model, start in (
+            (prismatic, prismatic._cold(data)),
+            (revolute, revolute._cold(data, u, axis.point)),
+        ):
+            fun, jac, precision, _ = model._problem(data, start)
+            root = np.sqrt(precision)
+
+            def fun_all(x, fun=fun, root=root):
+                return np.concatenate([fun(x), root * x])
+
+            def jac_all(x, jac=jac, root=root):
+                return np.vstack([jac(x), np.diag(root)])
+
+            t = time.perf_counter()
+            x_own = minimise(fun, jac, precision)
+            ours.append(time.perf_counter() - t)
+            t = time.perf_counter()
+            x_lsq = least_squares(fun_all, np.zeros(precision.size), jac=jac_all, x_scale="jac").x
+            scipy_times.append(time.perf_counter() - t)
+            c_own, c_lsq = (float(np.sum(fun_all(x) ** 2)) for x in (x_own, x_lsq))
+            gap = max(gap, abs(c_own - c_lsq) / max(c_lsq, 1e-12))
+    return 1e3 * float(np.median(ours)), 1e3 * float(np.median(scipy_times)), gap
 
 
 def drawer(trials: int, seed: int) -> list[tuple[str, float, float]]:
@@ -181,16 +242,20 @@ def main(argv: list[str] | None = None) -> None:
     for mode in args.modes:
         rows, confusion = sweep(mode, args.configs, args.motions, args.draws, args.seed)
         print(f"\n### {mode}: {args.draws} draws per type and setting\n")
-        print("| configurations | motion | accuracy | false > 0.9 | BIC false > 0.9 | ms |")
-        print("| ---: | ---: | ---: | ---: | ---: | ---: |")
-        for n_configs, motion, acc, false, false_bic, ms in rows:
+        print(
+            "| configurations | motion | accuracy | false > 0.9 | false > 0.9, no flag | "
+            "flagged | BIC false > 0.9 | ms |"
+        )
+        print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        for n_configs, motion, acc, false, clean, flagged, false_bic, ms in rows:
             print(
                 f"| {n_configs} | {motion:g} | {100 * acc:.1f} % | {100 * false:.1f} % | "
-                f"{100 * false_bic:.1f} % | {ms:.0f} |"
+                f"{100 * clean:.1f} % | {100 * flagged:.0f} % | {100 * false_bic:.1f} % | "
+                f"{ms:.0f} |"
             )
         total = len(rows) * 3 * args.draws
         false_all = sum(r[3] for r in rows) * 3 * args.draws
-        bic_all = sum(r[4] for r in rows) * 3 * args.draws
+        bic_all = sum(r[6] for r in rows) * 3 * args.draws
         print(f"\nconfusion (rows: truth; columns: {', '.join(OUTCOMES)}), all settings:\n")
         for kind, row in zip(JOINT_TYPES, confusion):
             print(f"    {kind:9s} " + " ".join(f"{v:5d}" for v in row))
@@ -204,6 +269,11 @@ def main(argv: list[str] | None = None) -> None:
         print(
             f"one estimate from scratch (12 presses): {ours:.1f} ms; JointAxisEstimator on "
             f"its 6: {axis:.1f} ms; ratio {ratio:.1f}"
+        )
+        own, lsq, gap = solvers(mode, args.draws, args.seed + 4)
+        print(
+            f"one solve: own solver {own:.2f} ms, least_squares {lsq:.2f} ms (ratio "
+            f"{lsq / own:.1f}); largest relative gap in the final cost {gap:.1e}"
         )
     print(f"\n### drawer: {args.drawer_trials} trials per case, mean direction error\n")
     print("| contact | edge lines (proposed) | contact points (simple) |")
