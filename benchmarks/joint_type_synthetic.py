@@ -22,9 +22,10 @@ Prints, per mode:
    the same run, and the models' solver against ``scipy.optimize.least_squares`` on the
    same problems from the same starts (docs/design.md 6.9 says why the own solver);
 
-then the drawer reproduction (issue 28 item 5, the paper's Table I for a prismatic joint):
-the direction's mean error from the edge lines and from the contact points, with the
-contact sliding along the edges and not.
+then the drawer reproduction (issue 28 item 5, the paper's Table I for a prismatic joint; a
+300 x 200 mm top pulled along its sides, four displacements 10 mm apart, its front and a
+side edge pressed at each): the direction's mean error from the edge lines and from the
+contact points, with the contact sliding along the edges and not.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ _ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(_ROOT))
 sys.path.insert(0, str(_ROOT / "tests"))
 
-from joint_type_cases import JOINT_TYPES, Face, Joint, press, scenario  # noqa: E402
+from joint_type_cases import JOINT_TYPES, Face, Joint, drawer, press, scenario  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
 
 from tactile_gym.estimation import (  # noqa: E402
@@ -62,16 +63,7 @@ CONFIDENT = 0.9
 
 
 def _estimate(p, mode: str, rule: str = "laplace"):
-    return estimate_joint_type(
-        p.points,
-        p.edges,
-        p.point_std,
-        p.edge_std,
-        lines=p.lines,
-        configs=p.configs,
-        mode=mode,
-        rule=rule,
-    )
+    return estimate_joint_type(*p.batch, **p.labels, mode=mode, rule=rule)
 
 
 def _false(probs: np.ndarray, truth: int) -> bool:
@@ -135,11 +127,12 @@ def slides_along_the_edge(mode: str, draws: int, seed: int) -> tuple[float, floa
     return out[0], out[1]
 
 
-def cost_ratio(mode: str, draws: int, seed: int) -> tuple[float, float, float]:
-    """Median time of one estimate from scratch, of JointAxisEstimator's on the primary
-    line's measurements (what the revolute model feeds it), and their ratio."""
+def cost_ratio(mode: str, draws: int, seed: int) -> tuple[float, float, float, float]:
+    """Median time of one estimate from scratch (12 presses), of JointAxisEstimator's on
+    the primary line's 6 presses (what the revolute model feeds it), their ratio, and the
+    median time of the online refit after each press from the fifth on."""
     rng = np.random.default_rng(seed)
-    ours, axis = [], []
+    ours, axis, online = [], [], []
     for _ in range(draws):
         _, _, p = scenario(rng, "revolute", mode == "planar", 6, 1.0, 2)
         t = time.perf_counter()
@@ -151,15 +144,23 @@ def cost_ratio(mode: str, draws: int, seed: int) -> tuple[float, float, float]:
             est.add(x, e, p.point_std, p.edge_std)
         est.estimate()
         axis.append(time.perf_counter() - t)
+        types = JointTypeEstimator(mode)
+        for i, (x, e, line, config) in enumerate(zip(p.points, p.edges, p.lines, p.configs)):
+            types.add(x, e, p.point_std, p.edge_std, line=int(line), config=int(config))
+            t = time.perf_counter()
+            types.estimate()
+            if i >= 4:
+                online.append(time.perf_counter() - t)
     a, b = float(np.median(ours)), float(np.median(axis))
-    return 1e3 * a, 1e3 * b, a / b
+    return 1e3 * a, 1e3 * b, a / b, 1e3 * float(np.median(online))
 
 
-def solvers(mode: str, draws: int, seed: int) -> tuple[float, float, float]:
+def solvers(mode: str, draws: int, seed: int) -> tuple[float, float, float, float]:
     """Median time of the models' solver and of least_squares (trust region, the same
     residuals with the priors' rows appended, same Jacobian and start) over the prismatic
-    and revolute solves of revolute draws, and the largest relative gap in their final
-    costs."""
+    and revolute solves of revolute draws, the median of their ratio on each problem (the
+    two run back to back, so that a change of the machine's load touches both), and the
+    largest relative gap in their final costs."""
     rng = np.random.default_rng(seed)
     ours, scipy_times, gap = [], [], 0.0
     for _ in range(draws):
@@ -194,37 +195,23 @@ def solvers(mode: str, draws: int, seed: int) -> tuple[float, float, float]:
             scipy_times.append(time.perf_counter() - t)
             c_own, c_lsq = (float(np.sum(fun_all(x) ** 2)) for x in (x_own, x_lsq))
             gap = max(gap, abs(c_own - c_lsq) / max(c_lsq, 1e-12))
-    return 1e3 * float(np.median(ours)), 1e3 * float(np.median(scipy_times)), gap
+    ratio = float(np.median(np.array(scipy_times) / np.array(ours)))
+    return 1e3 * float(np.median(ours)), 1e3 * float(np.median(scipy_times)), ratio, gap
 
 
-def drawer(trials: int, seed: int) -> list[tuple[str, float, float]]:
-    """The drawer's direction (a 300 x 200 mm top pulled along its sides at a random yaw,
-    four displacements 10 mm apart, its front and a side edge pressed at each), mean error
-    in degrees of the proposed and the simple method, per contact case."""
+def drawer_errors(trials: int, seed: int) -> list[tuple[str, float, float]]:
+    """The drawer's direction (``joint_type_cases.drawer``): mean error in degrees of the
+    proposed and the simple method, per contact case."""
     rng = np.random.default_rng(seed)
     out = []
     for slide in (True, False):
         prop, simple = [], []
         for _ in range(trials):
-            yaw = rng.uniform(-math.pi, math.pi)
-            ex = np.array([math.cos(yaw), math.sin(yaw), 0.0])
-            ey = np.array([-ex[1], ex[0], 0.0])
-            face = Face(np.array([0.1, 0.2, 0.15]), ex, ey, (0.15, 0.1))
-            p = press(
-                rng, face, Joint("prismatic", ey), np.arange(4) * 0.01, [[0, 3]] * 4, slide=slide
-            )
-            est = fit_slide_direction(
-                p.points,
-                p.edges,
-                p.point_std,
-                p.edge_std,
-                lines=p.lines,
-                configs=p.configs,
-                planar=True,
-            )
-            prop.append(math.degrees(slide_error(est, ey)))
+            v, p = drawer(rng, slide)
+            est = fit_slide_direction(*p.batch, **p.labels, planar=True)
+            prop.append(math.degrees(slide_error(est, v)))
             simple_est = fit_slide_simple(p.points, lines=p.lines, planar=True)
-            simple.append(math.degrees(slide_error(simple_est, ey)))
+            simple.append(math.degrees(slide_error(simple_est, v)))
         case = "contact slides" if slide else "contact fixed"
         out.append((case, float(np.mean(prop)), float(np.mean(simple))))
     return out
@@ -265,20 +252,21 @@ def main(argv: list[str] | None = None) -> None:
             f"BIC {100 * bic_all / total:.1f} % of {total}; slides along the only edge: "
             f"Laplace {100 * along[0]:.0f} %, BIC {100 * along[1]:.0f} % of {args.draws}"
         )
-        ours, axis, ratio = cost_ratio(mode, args.draws, args.seed + 2)
+        ours, axis, ratio, online = cost_ratio(mode, args.draws, args.seed + 2)
         print(
             f"one estimate from scratch (12 presses): {ours:.1f} ms; JointAxisEstimator on "
-            f"its 6: {axis:.1f} ms; ratio {ratio:.1f}"
+            f"its 6: {axis:.1f} ms; ratio {ratio:.1f}; online refit after a press "
+            f"(5th-12th): {online:.1f} ms"
         )
-        own, lsq, gap = solvers(mode, args.draws, args.seed + 4)
+        own, lsq, ratio, gap = solvers(mode, args.draws, args.seed + 4)
         print(
-            f"one solve: own solver {own:.2f} ms, least_squares {lsq:.2f} ms (ratio "
-            f"{lsq / own:.1f}); largest relative gap in the final cost {gap:.1e}"
+            f"one solve: own solver {own:.2f} ms, least_squares {lsq:.2f} ms (median ratio "
+            f"{ratio:.1f}); largest relative gap in the final cost {gap:.1e}"
         )
     print(f"\n### drawer: {args.drawer_trials} trials per case, mean direction error\n")
     print("| contact | edge lines (proposed) | contact points (simple) |")
     print("| --- | ---: | ---: |")
-    for case, prop, simple in drawer(args.drawer_trials, args.seed + 3):
+    for case, prop, simple in drawer_errors(args.drawer_trials, args.seed + 3):
         print(f"| {case} | {prop:.2f} deg | {simple:.2f} deg |")
 
 

@@ -90,6 +90,16 @@ class Presses:
     motions: np.ndarray
     pressed: list[list[int]]
 
+    @property
+    def batch(self) -> tuple:
+        """The positional arguments of the batch functions: points, edges and their stds."""
+        return self.points, self.edges, self.point_std, self.edge_std
+
+    @property
+    def labels(self) -> dict:
+        """The labels as keyword arguments."""
+        return {"lines": self.lines, "configs": self.configs}
+
 
 def press(
     rng: np.random.Generator,
@@ -197,3 +207,18 @@ def scenario(
     order = [0, 3, 2]
     pressed = [[order[m % 3] for m in range(edges_per_config)] for _ in range(n_configs)]
     return face, joint, press(rng, face, joint, motions, pressed, sigma_e=sigma_e, slide=slide)
+
+
+def drawer(rng: np.random.Generator, slide: bool) -> tuple[np.ndarray, Presses]:
+    """A drawer's top (300 x 200 mm) pulled along its sides at a random yaw: four
+    displacements 10 mm apart, its front and a side edge pressed at each (issue 28 item 5).
+
+    Returns:
+        The true direction and the presses.
+    """
+    yaw = rng.uniform(-math.pi, math.pi)
+    ex = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    ey = np.array([-ex[1], ex[0], 0.0])
+    face = Face(np.array([0.1, 0.2, 0.15]), ex, ey, (0.15, 0.1))
+    motions = np.arange(4) * 0.01
+    return ey, press(rng, face, Joint("prismatic", ey), motions, [[0, 3]] * 4, slide=slide)
