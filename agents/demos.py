@@ -1,18 +1,25 @@
 """Record the scripted policy's episodes as demonstrations, and read them back
 (``docs/design.md``, Learning).
 
-    python -m agents.demos --env tactile_gym/HingeProbePrimitive-v1 --episodes 80 --out demos
+    python -m agents.demos --env tactile_gym/HingeProbePrimitive-v2 --episodes 80 --out demos
+    python -m agents.demos --env tactile_gym/HingeProbePrimitive-v2 --minari \
+        tactile_gym/HingeProbePrimitive-v2/scripted-v0
 
 runs :func:`agents.scripted.scripted_policy` (on the 6-D ids, the scripted skill executor) on
-episodes seeded ``DEMO_SEED + k`` (``agents.seeds``) and writes ``<out>/<Name>.npz``. The file
-is plain NumPy, one row per env step (:data:`STEP_FIELDS`) or per episode
-(:data:`EPISODE_FIELDS`):
+episodes seeded ``DEMO_SEED + k`` (``agents.seeds``) and writes ``<out>/<Name>.npz``; with
+``--minari DATASET_ID`` it also writes them as a Minari dataset (Farama's format for offline
+RL and imitation datasets, in Minari's dataset folder: ``MINARI_DATASETS_PATH`` or
+``~/.minari/datasets``), which ``minari.load_dataset(DATASET_ID)`` reads and whose
+``recover_environment()`` makes the env with the recording's keywords (the ``[clients]``
+extra installs Minari). The ``.npz`` file is plain NumPy, one row per env step
+(:data:`STEP_FIELDS`) or per episode (:data:`EPISODE_FIELDS`):
 
 ========================  ==========  =====================================================
 key                       shape       meaning
 ========================  ==========  =====================================================
 ``obs.<name>``            (T, ...)    dict observations, one array per key, before each step
 ``obs``                   (T, n)      flat observations (``observation_mode="flat"``) instead
+``final_obs.<name>``      (E, ...)    each episode's last observation (``final_obs``: flat)
 ``acts``                  (T, A)      the actions taken (the env's action space)
 ``rews``                  (T,)        rewards
 ``terminated``            (T,)        the step ended the episode as a failure
@@ -26,6 +33,8 @@ key                       shape       meaning
 
 The ``imitation`` library's trajectory format was the alternative; its release pins
 Gymnasium 0.29 and Stable-Baselines3 2.2, below this package's (design notes, Learning).
+Minari installs beside Gymnasium 1.x and SB3 2.x; its own recorder (``DataCollector``) needs
+JAX, so the dataset is written from the recorded arrays instead (``save_minari``).
 """
 
 from __future__ import annotations
@@ -41,10 +50,26 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from .cli import KEY_VALUE_HELP, KNOWN_ENV_IDS, KeyValue, check_env_id, make_parser, run_main
+from .cli import (
+    KEY_VALUE_HELP,
+    KNOWN_ENV_IDS,
+    KeyValue,
+    check_env_id,
+    make_parser,
+    require,
+    run_main,
+)
 from .seeds import DEMO_SEED
 
-__all__ = ["Demos", "EPISODE_FIELDS", "STEP_FIELDS", "load_demos", "record_demos", "save_demos"]
+__all__ = [
+    "Demos",
+    "EPISODE_FIELDS",
+    "STEP_FIELDS",
+    "load_demos",
+    "record_demos",
+    "save_demos",
+    "save_minari",
+]
 
 #: Per-step arrays besides the observations.
 STEP_FIELDS = ("acts", "rews", "terminated", "truncated", "episode")
@@ -67,6 +92,8 @@ class Demos:
         final_position_error: ``(E,)`` final position errors, m.
         success: ``(E,)`` final successes.
         meta: env id, ``gym.make`` keywords, policy.
+        final_obs: each episode's last observation, as ``obs`` with ``E`` rows (None in files
+            recorded before it was kept).
     """
 
     obs: dict[str, np.ndarray] | np.ndarray
@@ -79,6 +106,7 @@ class Demos:
     final_position_error: np.ndarray
     success: np.ndarray
     meta: dict[str, Any]
+    final_obs: dict[str, np.ndarray] | np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.acts)
@@ -123,7 +151,7 @@ def record_demos(
     env = gym.make(env_id, **(env_kwargs or {}))
     policy = scripted_policy(env)
     steps: dict[str, list] = {key: [] for key in ("obs", *STEP_FIELDS)}
-    seeds, errors, successes = [], [], []
+    seeds, errors, successes, finals = [], [], [], []
     try:
         for k in range(episodes):
             seed = first_seed + k
@@ -140,19 +168,15 @@ def record_demos(
                 ):
                     steps[key].append(value)
             seeds.append(seed)
+            finals.append(obs)
             errors.append(float(info["position_error"]))
             successes.append(bool(info["is_success"]))
             if progress is not None:
                 progress(k + 1)
     finally:
         env.close()
-    first = steps["obs"][0]
-    if isinstance(first, dict):
-        obs = {key: np.stack([o[key] for o in steps["obs"]]) for key in first}
-    else:
-        obs = np.stack(steps["obs"])
     return Demos(
-        obs=obs,
+        obs=_stacked(steps["obs"]),
         acts=np.asarray(steps["acts"], dtype=np.float32),
         rews=np.asarray(steps["rews"], dtype=float),
         terminated=np.asarray(steps["terminated"], dtype=bool),
@@ -162,19 +186,29 @@ def record_demos(
         final_position_error=np.asarray(errors),
         success=np.asarray(successes, dtype=bool),
         meta={"env_id": env_id, "env_kwargs": dict(env_kwargs or {}), "policy": "scripted"},
+        final_obs=_stacked(finals),
     )
+
+
+def _stacked(observations: list) -> dict[str, np.ndarray] | np.ndarray:
+    """A list of dict (or flat) observations as one array per key (or one array)."""
+    if isinstance(observations[0], dict):
+        return {key: np.stack([o[key] for o in observations]) for key in observations[0]}
+    return np.stack(observations)
 
 
 def save_demos(demos: Demos, path: str | Path) -> Path:
     """Write ``demos`` to ``path`` (``.npz``) and return it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    if isinstance(demos.obs, dict):
-        obs = {f"obs.{key}": value for key, value in demos.obs.items()}
-    else:
-        obs = {"obs": demos.obs}
     arrays = {key: getattr(demos, key) for key in (*STEP_FIELDS, *EPISODE_FIELDS)}
-    np.savez_compressed(path, **obs, **arrays, meta=np.array(json.dumps(demos.meta)))
+    for name in ("obs", "final_obs"):
+        value = getattr(demos, name)
+        if isinstance(value, dict):
+            arrays |= {f"{name}.{key}": array for key, array in value.items()}
+        elif value is not None:
+            arrays[name] = value
+    np.savez_compressed(path, **arrays, meta=np.array(json.dumps(demos.meta)))
     return path
 
 
@@ -188,13 +222,76 @@ def load_demos(path: str | Path) -> Demos:
         missing = [k for k in (*STEP_FIELDS, *EPISODE_FIELDS, "meta") if k not in data.files]
         if missing:
             raise ValueError(f"{path} is not a demonstrations file: it lacks {missing}")
-        if "obs" in data.files:
-            obs = data["obs"]
-        else:
-            obs = {k.removeprefix("obs."): data[k] for k in data.files if k.startswith("obs.")}
+        obs, final_obs = (_read_obs(data, name) for name in ("obs", "final_obs"))
         fields = {k: data[k] for k in (*STEP_FIELDS, *EPISODE_FIELDS)}
         meta = json.loads(str(data["meta"]))
-    return Demos(obs=obs, meta=meta, **fields)
+    return Demos(obs=obs, meta=meta, final_obs=final_obs, **fields)
+
+
+def _read_obs(data, name: str) -> dict[str, np.ndarray] | np.ndarray | None:
+    """The observations stored under ``name`` (one array, or ``name.<key>`` arrays)."""
+    if name in data.files:
+        return data[name]
+    prefix = f"{name}."
+    keyed = {k.removeprefix(prefix): data[k] for k in data.files if k.startswith(prefix)}
+    return keyed or None
+
+
+def save_minari(demos: Demos, dataset_id: str) -> Any:
+    """Write ``demos`` as the Minari dataset ``dataset_id`` (e.g.
+    ``tactile_gym/HingeProbePrimitive-v2/scripted-v0``) in Minari's dataset folder: one
+    episode per demonstrated episode, with its reset seed, its observations (the last one
+    included), actions, rewards and ends, and the env's spec with the recording's keywords.
+
+    Returns:
+        The ``minari.MinariDataset``.
+
+    Raises:
+        ImportError: Minari is not installed (the ``[clients]`` extra).
+        ValueError: demonstrations without their final observations (an old file).
+    """
+    minari = require("minari", "clients")
+    from minari.data_collector import EpisodeBuffer
+
+    if demos.final_obs is None:
+        raise ValueError("these demonstrations lack their final observations; record them again")
+    buffers = []
+    for k, seed in enumerate(demos.seeds):
+        rows = demos.episode == k
+
+        def observations(steps, final, k=k, rows=rows):
+            return np.concatenate([steps[rows], final[k : k + 1]])
+
+        if isinstance(demos.obs, dict):
+            obs = {key: observations(demos.obs[key], demos.final_obs[key]) for key in demos.obs}
+        else:
+            obs = observations(demos.obs, demos.final_obs)
+        buffers.append(
+            EpisodeBuffer(
+                id=k,
+                seed=int(seed),
+                observations=obs,
+                actions=demos.acts[rows],
+                rewards=demos.rews[rows].tolist(),
+                terminations=demos.terminated[rows].tolist(),
+                truncations=demos.truncated[rows].tolist(),
+            )
+        )
+    env = gym.make(demos.meta["env_id"], **demos.meta["env_kwargs"])
+    try:
+        return minari.create_dataset_from_buffers(
+            dataset_id,
+            buffers,
+            env=env.spec,
+            algorithm_name=demos.meta["policy"],
+            author="tactile_gym",
+            description=f"{demos.meta['policy']} policy on {demos.meta['env_id']}, seeds "
+            f"{int(demos.seeds[0])}..{int(demos.seeds[-1])} (agents.demos)",
+            observation_space=env.observation_space,
+            action_space=env.action_space,
+        )
+    finally:
+        env.close()
 
 
 def demos_path(out: str | Path, env_id: str) -> Path:
@@ -211,6 +308,12 @@ def main(argv: list[str] | None = None) -> Path:
     )
     parser.add_argument("--out", default="demos", help="folder of <Name>.npz")
     parser.add_argument(
+        "--minari",
+        default=None,
+        metavar="DATASET_ID",
+        help="also write a Minari dataset of this id (e.g. tactile_gym/<Name>/scripted-v0)",
+    )
+    parser.add_argument(
         "--env-kwargs",
         nargs="+",
         action=KeyValue,
@@ -222,6 +325,9 @@ def main(argv: list[str] | None = None) -> Path:
     start = time.monotonic()
     demos = record_demos(args.env, args.episodes, args.seed, args.env_kwargs)
     path = save_demos(demos, demos_path(args.out, args.env))
+    if args.minari is not None:
+        dataset = save_minari(demos, args.minari)
+        print(f"Minari dataset {args.minari}: {dataset.total_episodes} episodes")
     print(
         f"{args.episodes} episodes (seeds {args.seed}..{args.seed + args.episodes - 1}), "
         f"{len(demos)} steps, mean final error {1e3 * demos.final_position_error.mean():.2f} mm, "
