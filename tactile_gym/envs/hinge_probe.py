@@ -164,7 +164,8 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
 
     * ``terminated`` (failure), each reason a boolean ``info["termination_<reason>"]``
       (``TERMINATION_REASONS``): the fingertip's sensor origin leaves the workspace
-      (``left_workspace``: ``task.workspace_radius`` from the hinge pin), the rigid shell
+      (``left_workspace``: ``task.workspace_radius`` from the hinge pin, or from where it
+      started with ``task={"workspace_center": "start"}``), the rigid shell
       bottoms out through the skin (``shell_contact``), or the force exceeds
       ``task.hard_force_limit`` (``overloaded``).
     * ``truncated``: after ``max_steps`` control steps (the env counts them itself, so that
@@ -276,6 +277,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
             rng=self.np_random,
         )
         self._steps = 0
+        self._start_position = self._scene.fingertip_position
         # Every episode starts in free air (2-5 mm above the face, "Starting State"): the
         # operator's tare there needs no knowledge of contact.
         perceived = self.pipeline.reset(self._sample(None, cfg.tare_action))
@@ -399,6 +401,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
             force_limit=float(self._scene.force_limit),
             shell_contact=step_info is not None and bool(step_info.shell_contact),
             hinge_distance=norm(self._scene.fingertip_position - pin),
+            start_distance=norm(self._scene.fingertip_position - self._start_position),
             action=action,
             measurements=len(self.pipeline.measurements),
             position_std=estimate.position_std,
