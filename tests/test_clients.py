@@ -123,7 +123,8 @@ def test_torchrl_gym_env_and_its_spec_check(torchrl, env_id):
 
     env = GymEnv(env_id, **SHORT)
     env.set_info_dict_reader(default_info_dict_reader())
-    check_env_specs(env)
+    check_env_specs(env, seed=0)
+    env.set_seed(0)
     rollout = env.rollout(3)
     assert rollout["next", "position_error"].shape == (3,)
     assert rollout["next", "termination_overloaded"].dtype.is_floating_point is False
@@ -139,6 +140,7 @@ def test_torchrl_over_a_same_step_vector_env(torchrl, env_id, mode):
     kwargs = same if mode == "vector_entry_point" else {"vector_kwargs": same}
     envs = gym.make_vec(env_id, 2, vectorization_mode=mode, max_steps=12, **kwargs)
     wrapped = GymWrapper(envs)
+    wrapped.set_seed(0)
     rollout = wrapped.rollout(15 if env_id in SIX_D else 3, break_when_any_done=False)
     assert rollout["next", "reward"].shape[:2] == (2, 15 if env_id in SIX_D else 3)
     assert rollout["next", "done"].any() or env_id in PRIMITIVE
@@ -169,6 +171,7 @@ def test_skrl_over_a_single_env_and_a_same_step_vector_env(skrl_wrap, env_id):
     single.close()
     envs = gym.make_vec(env_id, 2, max_steps=8, autoreset_mode=AutoresetMode.SAME_STEP)
     vector = skrl_wrap(envs)
+    envs.action_space.seed(0)
     states, _ = vector.reset()
     # Where the flat state holds the time left (the keys in sorted order, as flattened).
     layout = envs.get_attr("codec")[0].layout
