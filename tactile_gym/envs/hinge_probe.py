@@ -60,7 +60,7 @@ from tactile_gym.sensing import (
     Tare,
 )
 from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig
-from tactile_gym.sim.scene import FORCE_LIMIT
+from tactile_gym.sim.scene import FORCE_LIMIT, PHYSICS
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
 from tactile_gym.validation import (
     build_config,
@@ -105,6 +105,8 @@ class HingeProbeConfig:
             ``"ideal"`` (white noise only; the v1 ids').
         tare_action: the v2 behaviour: tare at reset and on the action's seventh component
             (the class docstring); False gives the v1 ids' 6-D action and raw reading.
+        physics: the contact step, from ``tactile_gym.sim.scene.PHYSICS``: ``"v2"`` (the v1
+            and v2 ids') or ``"v3"`` (the lean step, ``docs/design.md`` 3.6).
         skin, sensor, object, gate, task, scenario: nested overrides (above).
     """
 
@@ -121,6 +123,7 @@ class HingeProbeConfig:
     randomize: bool = True
     sensor_model: str = "realistic"
     tare_action: bool = True
+    physics: str = "v2"
     skin: dict = field(default_factory=dict)
     sensor: dict = field(default_factory=dict)
     object: dict = field(default_factory=dict)
@@ -152,6 +155,7 @@ class HingeProbeConfig:
         check_bool("randomize", self.randomize)
         check_choice("sensor_model", self.sensor_model, SENSOR_MODELS)
         check_bool("tare_action", self.tare_action)
+        check_choice("physics", self.physics, PHYSICS)
         # Build every nested config once, so that a bad field fails here, at construction.
         self.skin_config()
         self.sensor_config()
@@ -467,6 +471,7 @@ class HingeProbeEnv(gym.Env):
                 substeps=cfg.substeps,
                 force_limit=cfg.force_limit,
                 gui=self.render_mode == "human",
+                physics=cfg.physics,
             )
         scene = self._scene
         scene.reset(
