@@ -86,6 +86,50 @@ def test_skipped_substeps_are_those_evaluated():
         np.testing.assert_array_equal(a, b)
 
 
+def _run_split(scene: ProbeScene, motion: np.ndarray, calls: list[int]) -> int:
+    """Run the v3 kernel's substeps from the scene's state, ``calls`` substeps per call, with
+    one selection and ``motion`` per substep; the skin evaluations made."""
+    stats = np.zeros(_step_kernels.STATS_COLS)
+    evaluated = 0
+    for substeps in calls:
+        stats.fill(0.0)
+        stats[_step_kernels.TIP_MOVED] = scene._tip_moved
+        scene.skin.run(
+            scene._selection, scene._pose, motion, False, float(np.linalg.norm(motion[3])) + 1e-9,
+            substeps, scene._link, scene._link_row, scene.object.hinge, scene._joint,
+            scene._link_pose, scene._q_sel, scene._free_reach, scene.force_limit,
+            scene.time_step, scene._reaction, stats,
+        )  # fmt: skip
+        scene._tip_moved = stats[_step_kernels.TIP_MOVED]
+        evaluated += int(stats[_step_kernels.EVALUATED])
+    return evaluated
+
+
+def test_a_refused_guarded_move_skips_its_repeats():
+    """Pushing on past the force limit, the guard ends up refusing the whole motion every
+    substep (once its approach to the limit is below an ulp); once a substep has left the
+    fingertip and the skin as they were, the kernel repeats it without evaluating (three
+    evaluations each): 12 substeps in one call leave the state of 12 calls of one substep
+    each, to the bit."""
+    states = []
+    for calls in ([12], [1] * 12):
+        with ProbeScene(ObjectConfig.scissors(), physics="v3", force_limit=3.0) as scene:
+            g = scene.geometry
+            top = g.cylinder_length + g.outer_radius
+            spot = np.array([0.25, -0.15, top + 0.001])
+            scene.reset(0.0, spot, DOWN)
+            for k in range(1, 13):
+                scene.control_step(spot - [0.0, 0.0, 0.0002 * k], DOWN)
+            for _ in range(4):  # until the guard's approach to the limit is below an ulp
+                assert scene.control_step(spot - [0.0, 0.0, 0.003], DOWN).force_limited
+            motion = np.concatenate([np.eye(3), [[0.0, 0.0, -0.0001]]])
+            evaluated = _run_split(scene, motion, calls)
+            states.append((evaluated, scene.fingertip_position, scene.true_wrench))
+    assert states[0][0] == 2 and states[1][0] == 12
+    for a, b in zip(states[0][1:], states[1][1:], strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def _scripted_outcomes(env_id: str, physics: str, episodes: int) -> np.ndarray:
     env = gym.make(env_id, physics=physics)
     policy = scripted_policy(env)

@@ -144,6 +144,15 @@ def narrow(points, areas, nodes, poses, shapes, prim_info, reach):
     return out_nodes, out_points, out_areas, out_dist
 
 
+@kernel(inline="always")
+def _same_pose(a, b):
+    for r in range(4):
+        for c in range(3):
+            if a[r, c] != b[r, c]:
+                return False
+    return True
+
+
 @kernel()
 def _same_state(new, last, last_count):
     """Whether evaluation ``new`` committed the skin's state that evaluation ``last`` left
@@ -259,12 +268,13 @@ def control_step(
     out = empty
     evaluated = released = False
     free = nodes.shape[0] == 0
-    still = not turning and motion[3, 0] == 0.0 and motion[3, 1] == 0.0 and motion[3, 2] == 0.0
-    # The last evaluation committed the state it started from, at this fingertip pose and
-    # this joint angle: evaluating again would repeat it to the bit.
-    settled = False
+    # The last substep left the fingertip where it was (held still, or the guard refused the
+    # whole motion) and committed the skin's state it started from, at the joint angle of the
+    # evaluation before: the next one, at the same angle, would repeat it to the bit.
+    settled = limited_evaluated = False
     q_evaluated = np.nan
     torque_evaluated = 0.0
+    before = np.empty((4, 3))
     tip_moved = stats[TIP_MOVED]
     for k in range(substeps):
         q = joint[0]
@@ -291,7 +301,10 @@ def control_step(
             tip_moved += step_len
         elif settled and q == q_evaluated:
             torque = torque_evaluated
+            if limited_evaluated:
+                stats[LIMITED] = 1.0
         else:
+            before[:] = pose
             new, limited, travelled, pushed = _kernels.substep(
                 points, areas, nodes, distance, poses, prev_frames, shapes, prim_info,
                 prim_rows, state_prim, state_anchor, state_delta, k_n, k_t, mu, thickness,
@@ -299,8 +312,11 @@ def control_step(
                 f_prev, limit, damping_rate, reaction,
             )  # fmt: skip
             stats[EVALUATED] += 1.0
-            settled = still and q == q_evaluated and _same_state(new, out, old_count)
+            settled = (
+                q == q_evaluated and _same_pose(pose, before) and _same_state(new, out, old_count)
+            )
             q_evaluated = q
+            limited_evaluated = limited
             out = new
             evaluated = True
             tip_moved += travelled
