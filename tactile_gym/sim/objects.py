@@ -174,6 +174,8 @@ class HingedObject:
             angle, velocity: rad, rad/s.
             pose: (4, 3) the free box's pose at ``angle`` (``_pose_kernels.link_pose``).
         """
+        if angle == self._angle and velocity == self._velocity:
+            return  # a held link: PyBullet and the free box have it already
         self._angle, self._velocity = angle, velocity
         p.resetJointState(self.body_id, 0, angle, velocity, physicsClientId=self._cid)
         self._pose_free_box(pose.copy())

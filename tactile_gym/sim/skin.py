@@ -68,7 +68,7 @@ views and dictionaries on demand; the committed one is built only when asked for
 
 from __future__ import annotations
 
-import dataclasses
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -496,9 +496,9 @@ class SoftSkin:
             selection.prim_info,
             float(reach),
         )
-        sel = dataclasses.replace(
-            selection, nodes=nodes, points=points, areas=areas, distance=dist, reach=reach
-        )
+        sel = copy.copy(selection)  # dataclasses.replace runs __init__: 4x the time
+        sel.nodes, sel.points, sel.areas = nodes, points, areas
+        sel.distance, sel.reach = dist, reach
         self._set_kernel_args(sel)
         return sel
 
