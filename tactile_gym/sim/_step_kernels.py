@@ -28,8 +28,8 @@ from tactile_gym.sim import _kernels
 from tactile_gym.sim._jit import kernel
 from tactile_gym.sim._pose_kernels import advance_into, turned_frame
 
+#: Entries of ``hinge`` (module docstring); ``WEIGHT`` is the first of three.
 INERTIA, DAMPING, HOLDING, LOWER, UPPER, WEIGHT = 0, 1, 2, 3, 4, 5
-HINGE_COLS = 8
 
 #: Columns of ``control_step``'s ``stats``: the guard held the fingertip back, some node
 #: reached the shell, the largest penetration (m) and |f| (N) over the substeps, the link was
@@ -245,9 +245,9 @@ def control_step(
         stats: (STATS_COLS,) in/out: ``TIP_MOVED`` in, the rest accumulated from zero.
 
     Returns:
-        (substeps run, released, evaluated, the last evaluation): ``released`` if a contact
-        was let go, ``evaluated`` if the last evaluation is the committed contact (else there
-        is none: the contact is empty).
+        (substeps run, released, evaluated, the last evaluation): ``evaluated`` if the last
+        evaluation is now the committed contact; else ``released`` if the contact was let go
+        (it is empty), and neither if the call left the contact as it was.
     """
     empty = (
         0,

@@ -21,6 +21,11 @@ link are static. The fingertip is kinematic, like the paper's coordinate-measuri
 it moves at constant velocity toward the commanded pose over the substeps (speed-limited), and
 a guarded move refuses any substep that would raise |f| above ``force_limit`` by advancing
 into the object; retreating is always allowed.
+
+That is the v2 step (``physics="v2"``, the default). The v3 step (``physics="v3"``,
+docs/design.md 3.6) runs a control step's substeps in one compiled call that integrates the
+hinge too, keeps its broad phase across control steps, and skips substeps that would repeat
+the one before; it is held to bounds against the v2 step, not to its bits.
 """
 
 from __future__ import annotations
