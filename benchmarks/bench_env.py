@@ -25,9 +25,10 @@ headline figure, scripted primitives per core-second (thread CPU time).
 skin's compiled kernels (for v3 also the hinge, which runs in the same call), PyBullet's
 calls, the rest of ``ProbeScene.control_step`` (the simulator's Python) and the rest of the
 env step (controller, sensing, gate, estimator, task, observation). Each part is timed around
-its calls with the wall clock (``thread_time`` costs about 5 us a call here, more than some of
-the calls it would time), which adds under a microsecond per call; the bare-physics multiple
-of the plain rows is the figure to quote, the split says what bounds it.
+its calls with the thread's CPU time, as the rows are, so that other jobs on the cores do not
+count; a timed call costs about a microsecond of the clock's own, which is measured on calls
+of a function that does nothing and taken off each part and the total. The bare-physics
+multiple of the plain rows is the figure to quote, the split says what bounds it.
 """
 
 from __future__ import annotations
@@ -92,9 +93,10 @@ def bare_physics_per_control_step(env: gym.Env) -> float:
 
 
 def time_single(
-    env_id: str, policy: str, steps: int, physics: str, clock=time.thread_time
+    env_id: str, policy: str, steps: int, physics: str, clock=time.thread_time, timers=()
 ) -> dict[str, float]:
-    """Time ``steps`` env steps in this process (resets excluded) with ``clock``."""
+    """Time ``steps`` env steps in this process (resets excluded) with ``clock``; ``timers``
+    (``_Timer``) count only within the steps, and then bare physics is not timed."""
     env = gym.make(env_id, physics=physics)
     obs, _ = env.reset(seed=0)
     env.action_space.seed(0)
@@ -103,15 +105,19 @@ def time_single(
     elapsed, control_steps, forces = 0.0, 0, []
     for _ in range(steps):
         action = scripted.get_action(obs) if policy == "scripted" else env.action_space.sample()
+        for timer in timers:
+            timer.active = True
         start = clock()
         obs, _, terminated, truncated, info = env.step(action)
         elapsed += clock() - start
+        for timer in timers:
+            timer.active = False
         control_steps += info.get("steps", 1)
         forces.append(float(np.linalg.norm(obs["wrench"][:3])))
         if terminated or truncated:
             obs, _ = env.reset()
             scripted.reset()
-    bare = bare_physics_per_control_step(env)
+    bare = np.nan if timers else bare_physics_per_control_step(env)
     env.close()
     return {
         "steps/s": steps / elapsed,
@@ -158,31 +164,54 @@ def time_vector(env_id: str, steps: int, physics: str) -> dict[str, float]:
 
 
 class _Timer:
-    """Accumulates the time spent in the wrapped calls."""
+    """Accumulates the time spent in the wrapped calls, by ``clock``, and counts them, while
+    ``active``."""
 
-    def __init__(self) -> None:
+    def __init__(self, clock) -> None:
+        self.clock = clock
         self.seconds = 0.0
+        self.calls = 0
         self.depth = 0
+        self.active = True
 
     def wrap(self, function):
         def timed(*args, **kwargs):
-            if self.depth:  # a part called from within the same part counts once
+            # A part called from within the same part counts once.
+            if self.depth or not self.active:
                 return function(*args, **kwargs)
             self.depth += 1
-            start = time.perf_counter()
+            self.calls += 1
+            start = self.clock()
             try:
                 return function(*args, **kwargs)
             finally:
-                self.seconds += time.perf_counter() - start
+                self.seconds += self.clock() - start
                 self.depth -= 1
 
         return timed
 
 
+def timer_cost(clock, n: int = 20_000) -> tuple[float, float]:
+    """Seconds a timed call adds to its own measurement (inner) and to the whole run (outer),
+    from ``n`` timed calls of a function that does nothing."""
+    timer = _Timer(clock)
+    timed, plain = timer.wrap(lambda: None), lambda: None
+    start = clock()
+    for _ in range(n):
+        plain()
+    base = clock() - start
+    start = clock()
+    for _ in range(n):
+        timed()
+    return timer.seconds / n, (clock() - start - base) / n
+
+
 def profile_parts(env_id: str, steps: int, physics: str) -> tuple[dict[str, float], float]:
     """Where a control step of the scripted policy goes (see the module docstring): us per
-    control step by part, and the total."""
-    timers = {name: _Timer() for name in (*PARTS, "control_step")}
+    control step by part, and the total, less the timers' own cost."""
+    clock = time.thread_time
+    inner, outer = timer_cost(clock)
+    timers = {name: _Timer(clock) for name in (*PARTS, "control_step")}
     originals = []
     for name, owners in PARTS.items():
         for owner, attributes in owners:
@@ -192,44 +221,50 @@ def profile_parts(env_id: str, steps: int, physics: str) -> tuple[dict[str, floa
     originals.append((ProbeScene, "control_step", ProbeScene.control_step))
     ProbeScene.control_step = timers["control_step"].wrap(ProbeScene.control_step)
     try:
-        result = time_single(env_id, "scripted", steps, physics, clock=time.perf_counter)
+        result = time_single(
+            env_id, "scripted", steps, physics, clock=clock, timers=list(timers.values())
+        )
     finally:
         for owner, attribute, original in originals:
             setattr(owner, attribute, original)
     control_steps = steps * result["control steps/step"]
-    total = result["ms/control step"] * 1e3
-    parts = {name: 1e6 * t.seconds / control_steps for name, t in timers.items()}
-    sim = parts.pop("control_step")
+    scene = timers.pop("control_step")
+    nested = sum(t.calls for t in timers.values())  # all within control_step
+    parts = {
+        name: 1e6 * (t.seconds - t.calls * inner) / control_steps for name, t in timers.items()
+    }
+    sim = scene.seconds - scene.calls * inner - nested * (outer - inner)
+    sim = 1e6 * sim / control_steps
+    total = result["ms/control step"] * 1e3 - 1e6 * (nested + scene.calls) * outer / control_steps
     parts["simulator Python"] = sim - sum(parts.values())
     parts["env Python (sensing, gate, estimator, task, observation)"] = total - sim
-    parts["bare stepSimulation x substeps"] = result["bare ms/control step"] * 1e3
     return parts, total
 
 
-def profile(env_id: str, steps: int, physics: list[str]) -> str:
-    """The profile of each physics side by side, against the least bare physics of them."""
+def profile(env_id: str, steps: int, physics: list[str], bare: float) -> str:
+    """The profile of each physics side by side, as multiples of ``bare`` (s per control step,
+    the table's baseline: measured here it would time the wrapped ``stepSimulation``)."""
     runs = {name: profile_parts(env_id, steps, name) for name in physics}
-    bare = min(parts["bare stepSimulation x substeps"] for parts, _ in runs.values())
+    bare_us = 1e6 * bare
     lines = [
         f"`{env_id}`, scripted policy, {steps} steps: where one control step goes"
-        f" (bare physics {bare:.0f} us per control step)",
+        f" (bare physics {bare_us:.0f} us per control step)",
         "",
         "| part |" + "".join(f" {name} us | {name} x bare |" for name in physics),
         "|---|" + "---:|---:|" * len(physics),
     ]
     for part in runs[physics[0]][0]:
-        if part == "bare stepSimulation x substeps":
-            continue
         cells = "".join(
-            f" {parts[part]:.0f} | {parts[part] / bare:.1f}x |" for parts, _ in runs.values()
+            f" {parts[part]:.0f} | {parts[part] / bare_us:.1f}x |" for parts, _ in runs.values()
         )
         lines.append(f"| {part} |{cells}")
-    cells = "".join(f" {total:.0f} | {total / bare:.1f}x |" for _, total in runs.values())
+    cells = "".join(f" {total:.0f} | {total / bare_us:.1f}x |" for _, total in runs.values())
     lines.append(f"| total (timed) |{cells}")
     return "\n".join(lines)
 
 
-def table(env_id: str, steps: int, physics: list[str]) -> str:
+def table(env_id: str, steps: int, physics: list[str]) -> tuple[str, float]:
+    """The id's markdown table, and its baseline (s of bare physics per control step)."""
     primitive = env_id in tactile_gym.PRIMITIVE_ENV_IDS
     rows = {}
     for name in physics:
@@ -279,7 +314,7 @@ def table(env_id: str, steps: int, physics: list[str]) -> str:
             f"| {name} | {r['steps/s']:,.0f} | {r['ms/step']:.2f} |{extra}"
             f" {ratio:.1f}x |{per_primitive} {force} |"
         )
-    return "\n".join(lines)
+    return "\n".join(lines), bare / 1e3
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -299,10 +334,11 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the start\n")
     for env_id in args.ids:
-        print(table(env_id, args.steps, args.physics))
+        text, bare = table(env_id, args.steps, args.physics)
+        print(text)
         print()
         if args.profile:
-            print(profile(env_id, args.steps, args.physics))
+            print(profile(env_id, args.steps, args.physics, bare))
             print()
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
 
