@@ -317,10 +317,8 @@ def table(env_id: str, steps: int, physics: list[str]) -> tuple[str, float]:
     return "\n".join(lines), bare / 1e3
 
 
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=400, help="steps per row")
-    parser.add_argument("--ids", nargs="+", default=list(tactile_gym.ENV_IDS))
+def add_physics_option(parser: argparse.ArgumentParser) -> None:
+    """``--physics``, the contact steps a benchmark times in the same run (all by default)."""
     parser.add_argument(
         "--physics",
         nargs="+",
@@ -328,6 +326,13 @@ def main(argv: list[str] | None = None) -> None:
         default=list(PHYSICS),
         help="contact steps to time in the same run (default: all)",
     )
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=400, help="steps per row")
+    parser.add_argument("--ids", nargs="+", default=list(tactile_gym.ENV_IDS))
+    add_physics_option(parser)
     parser.add_argument(
         "--profile", action="store_true", help="also split a scripted control step into parts"
     )

@@ -37,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import tactile_gym  # noqa: E402
 from agents import train as train_mod  # noqa: E402
-from tactile_gym.sim.scene import PHYSICS  # noqa: E402
+from benchmarks.bench_env import add_physics_option  # noqa: E402
 
 
 class SpacesEnv(gym.Env):
@@ -157,13 +157,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--steps", type=int, default=4096, help="timed env steps per case")
     parser.add_argument("--n-envs", type=int, default=None)
     parser.add_argument("--repeats", type=int, default=1)
-    parser.add_argument(
-        "--physics",
-        nargs="+",
-        choices=PHYSICS,
-        default=list(PHYSICS),
-        help="contact steps to time in the same run (default: all)",
-    )
+    add_physics_option(parser)
     args = parser.parse_args(argv)
 
     config = train_mod.resolve_config(args.algo, args.env, n_envs=args.n_envs)

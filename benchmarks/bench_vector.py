@@ -38,11 +38,14 @@ import numpy as np  # noqa: E402
 from gymnasium.vector import AutoresetMode  # noqa: E402
 
 from agents.scripted import scripted_policy  # noqa: E402
-from benchmarks.bench_env import BARE_REPEATS, bare_physics_per_control_step  # noqa: E402
+from benchmarks.bench_env import (  # noqa: E402
+    BARE_REPEATS,
+    add_physics_option,
+    bare_physics_per_control_step,
+)
 from tactile_gym import PRIMITIVE_ENV_IDS  # noqa: E402
 from tactile_gym.sim import ObjectConfig  # noqa: E402
 from tactile_gym.sim.objects import HingedObject  # noqa: E402
-from tactile_gym.sim.scene import PHYSICS  # noqa: E402
 from tactile_gym.sim.world import SUBSTEPS, World  # noqa: E402
 
 
@@ -226,13 +229,7 @@ def main(argv: list[str] | None = None) -> None:
         "--control-steps", type=int, default=800, help="sub-env control steps per row"
     )
     parser.add_argument("--ids", nargs="+", default=["tactile_gym/HingeProbe-v1"])
-    parser.add_argument(
-        "--physics",
-        nargs="+",
-        choices=PHYSICS,
-        default=list(PHYSICS),
-        help="contact steps to time in the same run (default: all)",
-    )
+    add_physics_option(parser)
     args = parser.parse_args(argv)
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the start\n")
     print(footprint(args.ids[0]))

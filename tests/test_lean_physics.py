@@ -174,7 +174,7 @@ def test_a_link_that_outruns_the_broad_phase_gets_a_new_one(monkeypatch):
     run = _step_kernels.control_step
 
     def counted(*args):
-        calls.append(args[23])  # the substeps asked for
+        calls.append(args[8])  # the substeps asked for
         return run(*args)
 
     angles = {}

@@ -180,22 +180,7 @@ def _same_state(new, last, last_count):
 
 @kernel()
 def control_step(
-    points,
-    areas,
-    nodes,
-    distance,
-    poses,
-    prev_frames,
-    shapes,
-    prim_info,
-    prim_rows,
-    state_prim,
-    state_anchor,
-    state_delta,
-    k_n,
-    k_t,
-    mu,
-    thickness,
+    selection,
     old_ids,
     old_count,
     f_prev,
@@ -229,7 +214,8 @@ def control_step(
     before is released.
 
     Args:
-        points ... thickness: the selection's fixed arguments (``Selection.kernel_args``).
+        selection: ``_kernels.substep``'s first sixteen arguments, fixed for a broad phase
+            (``Selection.kernel_args``).
         old_ids, old_count, f_prev: the committed contact's node ids, count and |f| (N).
         pose, motion, turning, step_len: as in ``_kernels.substep``; ``pose`` in/out.
         substeps: how many substeps to run at most.
@@ -249,6 +235,7 @@ def control_step(
         evaluation is now the committed contact; else ``released`` if the contact was let go
         (it is empty), and neither if the call left the contact as it was.
     """
+    nodes, prim_info, state_prim = selection[2], selection[7], selection[9]
     empty = (
         0,
         0.0,
@@ -306,10 +293,8 @@ def control_step(
         else:
             before[:] = pose
             new, limited, travelled, pushed = _kernels.substep(
-                points, areas, nodes, distance, poses, prev_frames, shapes, prim_info,
-                prim_rows, state_prim, state_anchor, state_delta, k_n, k_t, mu, thickness,
-                old_ids, old_count, moved, pose, motion, turning, step_len, link, link_row, q,
-                f_prev, limit, damping_rate, reaction,
+                *selection, old_ids, old_count, moved, pose, motion, turning, step_len, link,
+                link_row, q, f_prev, limit, damping_rate, reaction,
             )  # fmt: skip
             stats[EVALUATED] += 1.0
             settled = (

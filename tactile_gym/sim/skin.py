@@ -680,7 +680,7 @@ class SoftSkin:
             selection's reach (select again and run the rest).
         """
         ran, released, evaluated, out = _step_kernels.control_step(
-            *selection.kernel_args,
+            selection.kernel_args,
             self._ids,
             self.n_active,
             self.force_norm,
