@@ -56,7 +56,9 @@ that started at distance d cannot touch before the fingertip and object have mov
 relative to each other: each substep (``evaluate``) evaluates only the prefix of candidates
 whose starting distance is below the motion so far. The same bounds give a selection without
 candidates its clearance: no node can touch anything before that much relative motion, so
-the scene keeps it over several control steps (docs/design.md 3.5).
+the scene keeps it over several control steps (docs/design.md 3.5). The v3 step keeps a
+selection with candidates too and makes it again from its own candidates (``narrow``) once
+the fingertip has moved (docs/design.md 3.6).
 
 The broad phase, the per-substep node loop (narrow phase, forces, stick-slip, wrench) and
 committing the state are compiled kernels (:mod:`tactile_gym.sim._kernels`): a few hundred
@@ -480,7 +482,7 @@ class SoftSkin:
         reach less the relative motion since it was made.
 
         Args:
-            selection: from ``select``.
+            selection: from ``select`` or ``narrow``.
             primitives: the list given to ``select``, posed now.
             rotation, position: fingertip pose now (sensor to world).
             reach: distance bound, m.
