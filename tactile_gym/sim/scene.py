@@ -446,8 +446,8 @@ class ProbeScene:
         done = 0
         while done < n:
             left = n - done
-            angle = joint[0]
-            budget = abs(joint[1]) * left * dt * reach_obj + 1e-3
+            angle, velocity = joint.tolist()  # Python floats: NumPy scalars cost 10x per op
+            budget = abs(velocity) * left * dt * reach_obj + 1e-3
             need = left * step_len + budget
             moved = self._tip_moved + abs(angle - self._q_sel) * reach_obj
             if sel is None or moved + need >= sel.reach:
@@ -476,26 +476,27 @@ class ProbeScene:
                 self._reaction,
                 stats,
             )
-            self._tip_moved = stats[_step_kernels.TIP_MOVED]
+            self._tip_moved = float(stats[_step_kernels.TIP_MOVED])
             done += ran
             if ran < left:
                 # The link sped up past the bound: select again for the rest, with the link
                 # where it is now.
-                obj.set_state(float(joint[0]), float(joint[1]), self._link_pose)
+                obj.set_state(*joint.tolist(), self._link_pose)
                 sel = None
-        obj.set_state(float(joint[0]), float(joint[1]), self._link_pose)
-        pushed = bool(stats[_step_kernels.PUSHED])
+        obj.set_state(*joint.tolist(), self._link_pose)
+        k = _step_kernels
+        out = stats.tolist()
         reaction = self._reaction
         self.last_reaction = (
-            (reaction[0].copy(), reaction[1].copy(), reaction[2].copy()) if pushed else None
+            (reaction[0].copy(), reaction[1].copy(), reaction[2].copy()) if out[k.PUSHED] else None
         )
         return StepInfo(
-            force_limited=bool(stats[_step_kernels.LIMITED]),
-            shell_contact=bool(stats[_step_kernels.SHELL]),
-            max_penetration=float(stats[_step_kernels.MAX_PEN]),
+            force_limited=bool(out[k.LIMITED]),
+            shell_contact=bool(out[k.SHELL]),
+            max_penetration=out[k.MAX_PEN],
             n_active_nodes=skin.n_active,
-            max_force=float(stats[_step_kernels.MAX_FORCE]),
-            skin_substeps=int(stats[_step_kernels.EVALUATED]),
+            max_force=out[k.MAX_FORCE],
+            skin_substeps=int(out[k.EVALUATED]),
         )
 
     def _narrow(self, selection: Selection, reach: float, angle: float) -> Selection:
