@@ -94,14 +94,15 @@ class NominalLayout:
         return start, outward
 
 
-def make_scene(condition: str, sensor: str = "realistic") -> ProbeScene:
+def make_scene(condition: str, sensor: str = "realistic", physics: str = "v2") -> ProbeScene:
     """The paper's scene under a condition of ``CONDITIONS``, the hand holding the grip,
     with a sensor of ``SENSORS`` (a condition's ``sensor_model`` and ``sensor`` fields
-    change it)."""
+    change it) and the contact step ``physics`` (``tactile_gym.sim.scene.PHYSICS``)."""
     change = CONDITIONS[condition]
     base = SENSORS[change.get("sensor_model", sensor)]
     return ProbeScene(
         condition_object(condition),
         SkinConfig(**change.get("skin", {})),
         replace(base, **change.get("sensor", {})),
+        physics=physics,
     )

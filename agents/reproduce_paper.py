@@ -92,6 +92,7 @@ from tactile_gym.sensing import (
     run_press,
 )
 from tactile_gym.sim import ProbeScene
+from tactile_gym.sim.scene import PHYSICS
 from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
 
 from .cli import make_parser, progress_bar, run_main
@@ -492,13 +493,14 @@ def reproduce(
     sensor: str = "realistic",
     tare: bool = True,
     progress: Callable[[], None] | None = None,
+    physics: str = "v2",
 ) -> dict:
     """Run every cell: ``trials`` trials per seed, each condition, scheme and contact case.
 
     The trials of a cell draw from the same random streams under every condition, so the
     conditions differ only by what they change. ``sensor`` (of ``SENSORS``) and ``tare``
     (tare before each press) apply to every condition; ``progress`` is called after each
-    trial.
+    trial; ``physics`` is the contact step (``tactile_gym.sim.scene.PHYSICS``).
 
     Returns:
         ``{key: cell}`` with key ``(scheme, case)`` for the nominal condition and
@@ -507,7 +509,7 @@ def reproduce(
     """
     results = {}
     for condition in conditions:
-        scene = make_scene(condition, sensor)
+        scene = make_scene(condition, sensor, physics)
         layout = NominalLayout.of(condition_object(condition))
         if nominal is not None and condition == "nominal":
             layout = nominal
@@ -560,6 +562,12 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--no-tare", action="store_true", help="never tare: press on the raw readings"
     )
+    parser.add_argument(
+        "--physics",
+        default="v2",
+        choices=PHYSICS,
+        help="the contact step: v2, exact, or v3, lean (default: v2)",
+    )
     parser.add_argument("--out", default="results/paper", help="folder for the table and plots")
     parser.add_argument("--no-plot", action="store_true", help="write the table only")
     args = parser.parse_args(argv)
@@ -603,6 +611,7 @@ def main(argv: list[str] | None = None) -> dict:
             sensor=args.sensor,
             tare=not args.no_tare,
             progress=bar.update,
+            physics=args.physics,
         )
     finally:
         bar.close()

@@ -29,7 +29,7 @@ from tactile_gym.perception import GateConfig, MeasurementPipeline, StreamLimits
 from tactile_gym.perception.log import LogHeader
 from tactile_gym.sensing import SENSOR_MODELS, FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, SkinConfig
-from tactile_gym.sim.scene import FORCE_LIMIT
+from tactile_gym.sim.scene import FORCE_LIMIT, PHYSICS
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
 from tactile_gym.validation import (
     build_config,
@@ -73,6 +73,8 @@ class HingeProbeConfig:
             ``"ideal"`` (white noise only; the v1 ids').
         tare_action: the v2 behaviour: tare at reset and on the action's seventh component
             (the class docstring); False gives the v1 ids' 6-D action and raw reading.
+        physics: the contact step, from ``tactile_gym.sim.scene.PHYSICS``: ``"v2"`` (the v1
+            and v2 ids') or ``"v3"`` (the lean step, ``docs/design.md`` 3.6).
         skin, sensor, object, gate, task, scenario: nested overrides (above).
     """
 
@@ -89,6 +91,7 @@ class HingeProbeConfig:
     randomize: bool = True
     sensor_model: str = "realistic"
     tare_action: bool = True
+    physics: str = "v2"
     skin: dict = field(default_factory=dict)
     sensor: dict = field(default_factory=dict)
     object: dict = field(default_factory=dict)
@@ -120,6 +123,7 @@ class HingeProbeConfig:
         check_bool("randomize", self.randomize)
         check_choice("sensor_model", self.sensor_model, SENSOR_MODELS)
         check_bool("tare_action", self.tare_action)
+        check_choice("physics", self.physics, PHYSICS)
         # Build every nested config here, once (each is cached), so that a bad field fails at
         # construction.
         self.skin_config  # noqa: B018

@@ -268,6 +268,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
                 substeps=cfg.substeps,
                 force_limit=cfg.force_limit,
                 gui=self.render_mode == "human",
+                physics=cfg.physics,
             )
         self._scene.reset(
             scenario.joint_angle,
