@@ -48,18 +48,43 @@ _TASKS = (
     ("HingeProbe3DPrimitive", _PRIMITIVE, _3D),
 )
 
+# The joint ids (issue 28): the joint type unknown, each reset drawing a family of any joint;
+# born on the v3 contact step (docs/design.md 3.6, 7.12).
+_JOINT_PLANAR = {"families": ("scissors", "slider", "block"), "estimator": "planar"}
+_JOINT_3D = {"families": ("door", "tilted", "drawer", "tilted_drawer", "block"), "estimator": "3d"}
+_JOINT_SIX_D = (
+    "tactile_gym.envs.joint_probe:JointProbeEnv",
+    "tactile_gym.envs.joint_probe:make_vector_env",
+)
+_JOINT_PRIMITIVE = (
+    "tactile_gym.envs.joint_probe_primitive:make_primitive_env",
+    "tactile_gym.envs.joint_probe_primitive:make_primitive_vector_env",
+)
+_JOINT_TASKS = (
+    ("JointProbe", _JOINT_SIX_D, _JOINT_PLANAR),
+    ("JointProbe3D", _JOINT_SIX_D, _JOINT_3D),
+    ("JointProbePrimitive", _JOINT_PRIMITIVE, _JOINT_PLANAR),
+    ("JointProbe3DPrimitive", _JOINT_PRIMITIVE, _JOINT_3D),
+)
+
 #: The current environment ids: two tasks (the paper's planar scissors; scissors, doors and
 #: tilted axes with a 3D estimator), each with two action modes on the same physics (6-D
 #: fingertip motions and a tare, or probing primitives that run the former underneath).
 ENV_IDS: tuple[str, ...] = tuple(f"tactile_gym/{name}-v2" for name, _, _ in _TASKS)
 #: The v1 ids, the same tasks with the ideal sensor, no tare and the v1 gate.
 LEGACY_ENV_IDS: tuple[str, ...] = tuple(i.replace("-v2", "-v1") for i in ENV_IDS)
-#: The ids (v2 and v1) whose step is one probing primitive, many control steps long.
+#: The joint ids: which joint is it (rigid, revolute or prismatic), and its parameters;
+#: planar and 3D, each with both action modes.
+JOINT_ENV_IDS: tuple[str, ...] = tuple(f"tactile_gym/{name}-v0" for name, _, _ in _JOINT_TASKS)
+#: The ids (v2 and v1, and the joint ids) whose step is one probing primitive, many control
+#: steps long.
 PRIMITIVE_ENV_IDS: tuple[str, ...] = tuple(
     f"tactile_gym/{name}-{version}"
     for version in ("v2", "v1")
     for name, entries, _ in _TASKS
     if entries is _PRIMITIVE
+) + tuple(
+    f"tactile_gym/{name}-v0" for name, entries, _ in _JOINT_TASKS if entries is _JOINT_PRIMITIVE
 )
 
 try:
@@ -75,4 +100,12 @@ for _version, _extra in (("v2", {}), ("v1", _V1)) if register else ():
             kwargs={**_kwargs, **_extra},
         )
 
-__all__ = ["ENV_IDS", "LEGACY_ENV_IDS", "PRIMITIVE_ENV_IDS", "__version__"]
+for _name, (_entry, _vector_entry), _kwargs in _JOINT_TASKS if register else ():
+    register(
+        id=f"tactile_gym/{_name}-v0",
+        entry_point=_entry,
+        vector_entry_point=_vector_entry,
+        kwargs={**_kwargs, "physics": "v3"},
+    )
+
+__all__ = ["ENV_IDS", "JOINT_ENV_IDS", "LEGACY_ENV_IDS", "PRIMITIVE_ENV_IDS", "__version__"]

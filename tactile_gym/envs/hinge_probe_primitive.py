@@ -9,7 +9,7 @@ the primitive env's keywords from the 6-D env's; each version drives the 6-D env
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -117,6 +117,9 @@ class HingeProbePrimitiveEnv(EnvSpecOwnHorizon, gym.Env):
     * v1: initial release.
     """
 
+    #: The executor of the primitives (an env of other ids sets its own).
+    executor_class: ClassVar[type[PrimitiveExecutor]] = PrimitiveExecutor
+
     def __init__(
         self,
         control_env: HingeProbeEnv,
@@ -149,7 +152,7 @@ class HingeProbePrimitiveEnv(EnvSpecOwnHorizon, gym.Env):
         self.observation_space = self.codec.space(self._mode)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
         self._guard = StepGuard(self.action_space)
-        self._executor = PrimitiveExecutor.for_env(control_env, self.scales)
+        self._executor = self.executor_class.for_env(control_env, self.scales)
         self._frames: list[np.ndarray] = []
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
