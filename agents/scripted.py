@@ -91,6 +91,19 @@ class PrimitiveProber:
         self._drag = 0.0
         self._stalls = 0
 
+    def resume(self, edges: list[np.ndarray], levers: list[float], count: int, drag: float):
+        """Carry on an episode begun by another protocol as if this one had turned the link
+        by a drag of ``drag`` (m) after measuring the edge at ``edges`` (one per link angle,
+        with the levers of the turns between them, drag over turn, m/rad), and had counted
+        ``count`` measurements: its next ``act`` takes a new measurement as its probe's
+        after that turn."""
+        self.reset()
+        self._edges = [np.asarray(e, dtype=float) for e in edges]
+        self._drags = list(levers)
+        self._count = int(count)
+        self._drag = float(drag)
+        self._last = "probe"
+
     def act(self, obs: dict) -> np.ndarray:
         """The next primitive action (3,) for a dict observation of a v1 env."""
         reading = TouchReading.from_obs(obs)

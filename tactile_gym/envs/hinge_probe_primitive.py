@@ -141,8 +141,8 @@ class HingeProbePrimitiveEnv(EnvSpecOwnHorizon, gym.Env):
         self.max_primitives = check_int("max_primitives", max_primitives, 1, 10_000)
         self._horizon = self.max_primitives
         self.scales = PrimitiveScales(
-            probe_across=check_number("probe_across", probe_across, 0.0, 0.01, low_open=True),
-            probe_along=check_number("probe_along", probe_along, 0.0, 0.05),
+            probe_across=check_number("probe_across", probe_across, 0.0, 0.05, low_open=True),
+            probe_along=check_number("probe_along", probe_along, 0.0, 0.1),
             turn_distance=check_number("turn_distance", turn_distance, 0.0, 0.1, low_open=True),
         )
         self._mode = control_env.config.observation_mode

@@ -9,6 +9,7 @@ edge), so that it can slide a drawer as well as turn a link. ``make_primitive_en
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -24,6 +25,7 @@ from tactile_gym.envs.skills import (
     ProbeFrame,
     Skill,
     TareSensor,
+    TouchReading,
     primitive_skills,
 )
 from tactile_gym.envs.vector import HingeProbeVectorEnv
@@ -31,13 +33,57 @@ from tactile_gym.estimation import JointTypeEstimate
 from tactile_gym.vec3 import norm
 
 __all__ = [
+    "JOINT_SCALES",
+    "LIFT_SLOPE",
+    "NORMAL_UPDATE_ANGLE",
     "JointPrimitiveExecutor",
+    "JointProbeFrame",
     "JointProbePrimitiveEnv",
     "Slide",
     "joint_primitive_skills",
     "make_primitive_env",
     "make_primitive_vector_env",
 ]
+
+
+#: What an action of 1 means for the joint ids' primitives, m: a probe moves up to 20 mm
+#: across and 50 mm along the last edge (to come back after a push that left the link where
+#: it was, and to reach the face's other edges), a drag 20 mm.
+JOINT_SCALES = PrimitiveScales(probe_across=0.02, probe_along=0.05, turn_distance=0.02)
+#: A probe lifts this much more per metre it moves (tan 20 deg): the face's normal as the
+#: frame has it may be as far off as an edge press's tilt, and a long move at the usual 1 mm
+#: clearance would run into the face.
+LIFT_SLOPE = math.tan(math.radians(20.0))
+#: Largest angle between a press's force and the probing frame's normal at which the press
+#: still sets the normal, rad: beyond it the finger pressed on an edge or a corner from
+#: beyond (the force leans asin(b / R) at b beyond an edge), not on the face.
+NORMAL_UPDATE_ANGLE = math.radians(20.0)
+
+
+@dataclass
+class JointProbeFrame(ProbeFrame):
+    """``ProbeFrame`` whose normal follows only presses on the face: the first press, and
+    then those whose force lies within ``NORMAL_UPDATE_ANGLE`` of the normal so far. The
+    joint ids' probes look for edges and ends beyond the probed face, where a press that
+    lands beyond an edge would otherwise tilt every later press by tens of degrees. Before
+    an edge is measured, its edge is world x (made square to the normal at each update), so
+    that the primitives can move the finger before they know any edge."""
+
+    def __post_init__(self) -> None:
+        if self.edge is None:
+            self.edge = np.array([1.0, 0.0, 0.0])
+
+    def update(self, reading: TouchReading) -> None:
+        if not reading.touching or reading.magnitude < 1.0:
+            return
+        normal = self.normal
+        force = reading.force / reading.magnitude
+        keep = self.point is not None and force @ normal < math.cos(NORMAL_UPDATE_ANGLE)
+        super().update(reading)
+        if keep:
+            self.normal = normal
+        edge = self.edge - (self.edge @ self.normal) * self.normal
+        self.edge = edge / norm(edge)
 
 
 class Slide(Drag):
@@ -72,14 +118,16 @@ def joint_primitive_skills(
 ) -> tuple[str, list[Skill]]:
     """The primitive a normalised action (3,) asks for, as the skills that carry it out.
 
-    ``action[0] < 0``: ``probe``, as on the hinge ids (``primitive_skills``). ``action[0] >=
+    ``action[0] < 0``: ``probe``, as on the hinge ids (``primitive_skills``), lifting higher
+    before a long move (``LIFT_SLOPE``). ``action[0] >=
     0``: ``drag`` -- lift, press to 5.5 N where the finger is, and drag by ``action[1]``
     across the last edge (positive toward the face's interior) and ``action[2]`` along it,
-    each times ``scales.turn_distance``. Before the first edge is known, ``drag`` only
-    presses. With ``tare`` the sensor is tared right after the lift (``TareSensor``).
+    each times ``scales.turn_distance``. Before the first edge is known, the frame's edge is
+    world x (``JointProbeFrame``). With ``tare`` the sensor is tared right after the lift
+    (``TareSensor``).
     """
     if action[0] < 0.0:
-        return primitive_skills(action, frame, max_translation, dwell, scales, tare)
+        return primitive_skills(action, frame, max_translation, dwell, scales, tare, LIFT_SLOPE)
     lift = Lift(max_translation, frame)
     skills: list[Skill] = [lift]
     if tare:
@@ -92,7 +140,12 @@ def joint_primitive_skills(
 
 
 class JointPrimitiveExecutor(PrimitiveExecutor):
-    """``PrimitiveExecutor`` with the joint ids' primitives (``joint_primitive_skills``)."""
+    """``PrimitiveExecutor`` with the joint ids' primitives (``joint_primitive_skills``) and
+    probing frame (``JointProbeFrame``)."""
+
+    def reset(self) -> None:
+        super().reset()
+        self.frame = JointProbeFrame()
 
     def skills_for(self, action: np.ndarray) -> tuple[str, list[Skill]]:
         return joint_primitive_skills(
@@ -131,7 +184,7 @@ class JointProbePrimitiveEnv(HingeProbePrimitiveEnv):
 
     | primitive | a[1] at 1                              | a[2] at 1                           |
     |-----------|----------------------------------------|-------------------------------------|
-    | probe     | across offset ``probe_across`` (3 mm), | along offset ``probe_along`` (10 mm)|
+    | probe     | across offset ``probe_across`` (20 mm),| along offset ``probe_along`` (50 mm)|
     |           | positive beyond the last edge          | in the edge's direction             |
     | drag      | ``turn_distance`` (20 mm) across the   | ``turn_distance`` along the last    |
     |           | last edge, positive toward the face's  | edge, in its direction              |
@@ -142,7 +195,9 @@ class JointProbePrimitiveEnv(HingeProbePrimitiveEnv):
     * ``drag``: lift, press to 5.5 N where the finger is, and drag by
       ``(a[1], a[2]) turn_distance`` in the face plane (``Slide``): the sticking skin carries
       a hinged link round, a sliding one along its travel, and slides over a fixed one.
-      Before the first edge is known, ``drag`` only presses.
+
+    Before the first edge is measured, "the last edge" of both is world x, made square to
+    the face's normal (``JointProbeFrame``).
 
     Both tare the F/T sensor right after the lift (``skills.TareSensor``).
 
@@ -172,10 +227,20 @@ class JointProbePrimitiveEnv(HingeProbePrimitiveEnv):
 
     executor_class = JointPrimitiveExecutor
 
-    def __init__(self, control_env: JointProbeEnv, *args: Any, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        control_env: JointProbeEnv,
+        max_primitives: int = 64,
+        probe_across: float = JOINT_SCALES.probe_across,
+        probe_along: float = JOINT_SCALES.probe_along,
+        turn_distance: float = JOINT_SCALES.turn_distance,
+        render_mode: str | None = None,
+    ) -> None:
         if not isinstance(control_env, JointProbeEnv):
             raise TypeError(f"control_env must be a JointProbeEnv, got {type(control_env)}")
-        super().__init__(control_env, *args, **kwargs)
+        super().__init__(
+            control_env, max_primitives, probe_across, probe_along, turn_distance, render_mode
+        )
 
     @property
     def joint_estimate(self) -> JointTypeEstimate:

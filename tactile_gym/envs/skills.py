@@ -359,6 +359,7 @@ def primitive_skills(
     dwell: int,
     scales: PrimitiveScales,
     tare: bool = False,
+    lift_slope: float = 0.0,
 ) -> tuple[str, list[Skill]]:
     """The primitive a normalised action (3,) asks for, as the skills that carry it out.
 
@@ -368,7 +369,9 @@ def primitive_skills(
     edge, press to 5.5 N and drag ``action[1]`` across the edge (positive toward the face's
     interior). Before the first edge is known there are no directions to move in: ``probe``
     presses where it is, ``turn`` only presses. With ``tare`` both tare the sensor right
-    after the lift, before moving on (:class:`TareSensor`).
+    after the lift, before moving on (:class:`TareSensor`). The lift clears the skin by 1 mm
+    plus ``lift_slope`` times the move's length, so that a long move clears a face whose
+    normal the frame has a little wrong.
     """
     name = PRIMITIVES[int(action[0] >= 0.0)]
     offset = np.zeros(3)
@@ -376,7 +379,7 @@ def primitive_skills(
         offset = action[2] * scales.probe_along * frame.edge
         if name == "probe":
             offset = offset - action[1] * scales.probe_across * frame.interior
-    lift = Lift(max_translation, frame)
+    lift = Lift(max_translation, frame, 0.001 + lift_slope * norm(offset))
     skills: list[Skill] = [lift]
     if tare:
         skills.append(TareSensor(max_translation, frame, lift))
