@@ -26,7 +26,8 @@ it cannot see (it happens at the press before the drag) and takes as unchanged.
 
 ``JointProber`` chooses primitives (the ``JointProbePrimitive`` ids' action);
 ``agents.scripted.SkillProber`` carries its choices out step by step on the 6-D joint ids.
-``agents.scripted.scripted_policy(env)`` returns the right one for any id.
+``joint_policy(env)`` returns the right one for any joint id (``agents.policies``' scripted
+policy picks it or ``agents.scripted.scripted_policy``).
 """
 
 from __future__ import annotations
@@ -37,8 +38,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agents.scripted import PrimitiveProber, ProberConfig
-from tactile_gym.envs.joint_probe_primitive import JointProbeFrame
+from agents.scripted import Policy, PrimitiveProber, ProberConfig, SkillProber
+from tactile_gym.envs.joint_probe_primitive import (
+    JOINT_SCALES,
+    JointPrimitiveExecutor,
+    JointProbeFrame,
+)
 from tactile_gym.envs.observation import (
     ContactObs,
     FingertipPoseObs,
@@ -52,7 +57,7 @@ from tactile_gym.perception.gate import line_distance
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.spatial import quaternion_to_matrix
 
-__all__ = ["JointProber", "JointProberConfig"]
+__all__ = ["JointProber", "JointProberConfig", "joint_policy"]
 
 _RIGID, _REVOLUTE, _PRISMATIC = (OUTCOMES.index(t) for t in ("rigid", "revolute", "prismatic"))
 
@@ -79,6 +84,10 @@ class JointProberConfig:
             ``settle_probes`` times) until one turns the normal by less than this, rad: the
             first press follows the finger's axis, which a tilted face's normal may be 30 deg
             off, and each press's force brings the normal about three times closer.
+        ring: radius of the first ring of probes around the start that look for the first
+            edge (the second ring's is twice that), m.
+        edge_tilt: least tilt at which a reading's edge steers the first edge's search,
+            rad.
         hinge: the hinge protocol's parameters (``ProberConfig``).
     """
 
@@ -93,6 +102,8 @@ class JointProberConfig:
     oblique: float = math.radians(5.0)
     settled: float = math.radians(1.5)
     settle_probes: int = 5
+    ring: float = 0.005
+    edge_tilt: float = math.radians(1.0)
     hinge: ProberConfig = ProberConfig()
 
 
@@ -222,32 +233,37 @@ class JointProber:
     def _find_edge(self) -> Generator[np.ndarray, dict, _Outcome]:
         """Measure the first edge, near the start. Until a press along the face's normal
         shows an edge (a press along another direction drags the skin, and its tilt, and its
-        edge's sign, are friction's), probe in place and then across the frame's edge, 4,
-        -4, 8, -8 mm ... from the start."""
+        edge's sign, are friction's), probe in place, then around the start: 5 mm away in
+        six directions 60 deg apart (opposite ones in turn), then 10 mm."""
         cfg = self.config
         out = yield from self._probe(np.zeros(3))
         for _ in range(cfg.settle_probes):
             if out.measured or out.turned < cfg.settled:
                 break
             out = yield from self._probe(np.zeros(3))  # until the normal settles
-        axis = self._frame.interior
+        frame = self._frame
         start = out.centre
+        ring = [0, 3, 1, 4, 2, 5]
         tries = 0
         while not out.measured:
             edge = out.contact.edge
-            if not out.oblique and ContactObs.read(out.obs).has_edge and out.contact.tilt > 0.03:
-                outward = np.cross(edge, self._frame.normal)
+            tilted = out.contact.tilt > cfg.edge_tilt
+            if not out.oblique and ContactObs.read(out.obs).has_edge and tilted:
+                outward = np.cross(edge, frame.normal)
                 found = yield from self._measure(None, outward, self._correction(out, outward))
                 if found is not None:
                     return found
-            tries += 1
             if out.oblique:
                 target = out.centre  # press again where it was, along the new normal
             else:
-                size = cfg.search_step * ((tries + 1) // 2 - 1 + 1)
-                target = start + (size if tries % 2 else -size) * axis
+                angle = math.pi / 3 * ring[tries % 6]
+                radius = cfg.ring * (1 + (tries // 6) % 2)
+                target = start + radius * (
+                    math.cos(angle) * frame.edge + math.sin(angle) * frame.interior
+                )
+                tries += 1
             offset = target - out.centre
-            offset -= (offset @ self._frame.normal) * self._frame.normal
+            offset -= (offset @ frame.normal) * frame.normal
             out = yield from self._probe(offset)
         return out
 
@@ -419,3 +435,15 @@ class JointProber:
                 return found
             offset = cfg.search_step * along
         return None
+
+
+def joint_policy(env, config: JointProberConfig = JointProberConfig()):  # noqa: B008
+    """The joint ids' scripted baseline, either action mode (dict or flat observations; it
+    starts over at each episode's first observation, as ``agents.scripted`` does); pass
+    ``gym.make(...)``."""
+    codec = env.get_wrapper_attr("codec")
+    if env.action_space.shape == (3,):
+        return Policy(JointProber(env.get_wrapper_attr("scales"), config), codec, True)
+    executor = JointPrimitiveExecutor.for_env(env.unwrapped, JOINT_SCALES)
+    chooser = JointProber(executor.scales, config)
+    return Policy(SkillProber(executor, chooser=chooser), codec, False)

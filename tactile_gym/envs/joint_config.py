@@ -61,7 +61,8 @@ class JointProbeConfig(HingeProbeConfig):
             ``families``, at least ``TYPE_FLOOR``) and the travel range (the slides' widest
             range) come from the reset distribution (``joint_type_prior``).
 
-    The rest as ``HingeProbeConfig``, with the v3 contact step by default, and ``scenario``
+    The rest as ``HingeProbeConfig``, with 800 control steps (40 s: telling the joint apart
+    takes pushes as well as presses), the v3 contact step by default, and ``scenario``
     applied over ``JOINT_SCENARIO`` (every family's layout yawed at random; with the 3D
     estimator, the probed edge at a height drawn for every family). ``task.reward_source``
     must be ``"truth"`` (the joint task has no predicted error to score).
@@ -70,6 +71,7 @@ class JointProbeConfig(HingeProbeConfig):
     JOINT_TYPES: ClassVar[tuple[str, ...]] = JOINT_TYPES
 
     families: tuple[str, ...] = ("scissors", "slider", "block")
+    max_steps: int = 800
     physics: str = "v3"
     labels: dict = field(default_factory=dict)
     joint_prior: dict = field(default_factory=dict)

@@ -8,6 +8,7 @@ edge), so that it can slide a drawer as well as turn a link. ``make_primitive_en
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -46,10 +47,10 @@ __all__ = [
 ]
 
 
-#: What an action of 1 means for the joint ids' primitives, m: a probe moves up to 20 mm
-#: across and 50 mm along the last edge (to come back after a push that left the link where
+#: What an action of 1 means for the joint ids' primitives, m: a probe moves up to 50 mm
+#: across and 80 mm along the last edge (to come back after a push that left the link where
 #: it was, and to reach the face's other edges), a drag 20 mm.
-JOINT_SCALES = PrimitiveScales(probe_across=0.02, probe_along=0.05, turn_distance=0.02)
+JOINT_SCALES = PrimitiveScales(probe_across=0.05, probe_along=0.08, turn_distance=0.02)
 #: A probe lifts this much more per metre it moves (tan 20 deg): the face's normal as the
 #: frame has it may be as far off as an edge press's tilt, and a long move at the usual 1 mm
 #: clearance would run into the face.
@@ -122,7 +123,8 @@ def joint_primitive_skills(
     before a long move (``LIFT_SLOPE``). ``action[0] >=
     0``: ``drag`` -- lift, press to 5.5 N where the finger is, and drag by ``action[1]``
     across the last edge (positive toward the face's interior) and ``action[2]`` along it,
-    each times ``scales.turn_distance``. Before the first edge is known, the frame's edge is
+    each times ``scales.turn_distance``; the press does not change the probing frame, which
+    follows the probes alone. Before the first edge is known, the frame's edge is
     world x (``JointProbeFrame``). With ``tare`` the sensor is tared right after the lift
     (``TareSensor``).
     """
@@ -132,10 +134,11 @@ def joint_primitive_skills(
     skills: list[Skill] = [lift]
     if tare:
         skills.append(TareSensor(max_translation, frame, lift))
-    skills.append(Press(max_translation, frame, force=5.5, dwell=0))
-    if frame.edge is not None:
-        distance = scales.turn_distance
-        skills.append(Slide(max_translation, frame, action[1] * distance, action[2] * distance))
+    # The press before the drag does not update the frame (it presses on a copy): the frame
+    # follows the probes alone, whose last readings the policy observes.
+    skills.append(Press(max_translation, dataclasses.replace(frame), force=5.5, dwell=0))
+    distance = scales.turn_distance
+    skills.append(Slide(max_translation, frame, action[1] * distance, action[2] * distance))
     return "drag", skills
 
 
@@ -184,7 +187,7 @@ class JointProbePrimitiveEnv(HingeProbePrimitiveEnv):
 
     | primitive | a[1] at 1                              | a[2] at 1                           |
     |-----------|----------------------------------------|-------------------------------------|
-    | probe     | across offset ``probe_across`` (20 mm),| along offset ``probe_along`` (50 mm)|
+    | probe     | across offset ``probe_across`` (50 mm),| along offset ``probe_along`` (80 mm)|
     |           | positive beyond the last edge          | in the edge's direction             |
     | drag      | ``turn_distance`` (20 mm) across the   | ``turn_distance`` along the last    |
     |           | last edge, positive toward the face's  | edge, in its direction              |

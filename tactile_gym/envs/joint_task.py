@@ -58,8 +58,11 @@ class JointStepFacts(StepFacts):
 
     @property
     def type_correct(self) -> bool:
-        """Whether the most probable outcome is the true type."""
-        return OUTCOMES[int(np.argmax(self.type_probabilities))] == self.joint_type
+        """Whether the true type is more probable than every other outcome (a tie, such as a
+        uniform prior's, is not a correct type)."""
+        p = np.asarray(self.type_probabilities)
+        i = OUTCOMES.index(self.joint_type)
+        return bool(p[i] > np.delete(p, i).max())
 
 
 class JointTypeTask(AxisEstimationTask):

@@ -93,7 +93,7 @@ class LabelConfig:
     line_tolerance: float = 0.002
     line_angle_tolerance: float = math.radians(2.0)
     line_sigmas: float = 3.0
-    turn_probability: float = 0.05
+    turn_probability: float = 0.2
 
     def __post_init__(self) -> None:
         check_number("labels.push_travel", self.push_travel, 0.0, 0.05, low_open=True)
