@@ -26,11 +26,13 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from gymnasium.vector import AutoresetMode
 from gymnasium.wrappers import TimeAwareObservation
 
-from tactile_gym import ENV_IDS, PRIMITIVE_ENV_IDS
+from tactile_gym import ENV_IDS, JOINT_ENV_IDS, PRIMITIVE_ENV_IDS
 from tactile_gym.envs.observation import ProgressObs
 
-SIX_D = [i for i in ENV_IDS if i not in PRIMITIVE_ENV_IDS]
-PRIMITIVE = [i for i in ENV_IDS if i in PRIMITIVE_ENV_IDS]
+#: The HingeProbe ids and the joint ids.
+ALL_IDS = ENV_IDS + JOINT_ENV_IDS
+SIX_D = [i for i in ALL_IDS if i not in PRIMITIVE_ENV_IDS]
+PRIMITIVE = [i for i in ALL_IDS if i in PRIMITIVE_ENV_IDS]
 SHORT = {"max_steps": 40}
 
 
@@ -41,14 +43,14 @@ def _make(env_id: str, **kwargs):
 # --------------------------------------------------------------------------- conventions
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_an_unknown_keyword_is_a_type_error_in_pythons_wording_and_a_value_error(env_id):
     for error in (TypeError, ValueError):
         with pytest.raises(error, match="unexpected keyword argument 'frameskip'"):
             gym.make(env_id, frameskip=1)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_info_is_flat_numeric_and_the_same_at_reset_and_every_step(env_id):
     env = _make(env_id)
     obs_keys = set(env.observation_space.spaces)
@@ -70,7 +72,7 @@ def test_info_is_flat_numeric_and_the_same_at_reset_and_every_step(env_id):
     assert {"termination_left_workspace", "termination_shell_contact"} <= set(first)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_the_horizon_is_in_the_spec_and_time_aware_observation_reads_it(env_id):
     env = _make(env_id)
     horizon = 64 if env_id in PRIMITIVE else SHORT["max_steps"]
@@ -116,12 +118,13 @@ def torchrl():
     return torchrl
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_torchrl_gym_env_and_its_spec_check(torchrl, env_id):
     from torchrl.envs import GymEnv, default_info_dict_reader
     from torchrl.envs.utils import check_env_specs
 
-    env = GymEnv(env_id, **SHORT)
+    # A joint id's random primitive moves up to 80 mm, lifting first: longer than 40 steps.
+    env = GymEnv(env_id, max_steps=SHORT["max_steps"] * (4 if env_id in JOINT_ENV_IDS else 1))
     env.set_info_dict_reader(default_info_dict_reader())
     check_env_specs(env, seed=0)
     env.set_seed(0)

@@ -397,6 +397,8 @@ def test_every_field_refuses_wrong_types_and_absurd_sizes(env_id):
             bad = [1, None, default.upper() + "?"]
         elif field.name == "families":
             bad = [(), ("sphere",), [1]]
+        elif field.name == "fixed_layouts":  # a list of families, empty allowed
+            bad = [("sphere",), [1], "sphere"]
         else:
             huge = (1e12,) * len(default)
             bad = [default[:-1], (*default, default[0]), (math.nan,) * len(default), huge]
@@ -579,6 +581,9 @@ NOT_THE_FIELD = {
     ("edge_from_trace", "point_std"),
     # How often a failed training run is retried, not the prober's failed probes.
     ("run_sweep", "retries"),
+    # The joint ids' primitives reach further (JOINT_SCALES): to the face's other edges.
+    ("JointProbePrimitiveEnv.__init__", "probe_across"),
+    ("JointProbePrimitiveEnv.__init__", "probe_along"),
 }
 
 

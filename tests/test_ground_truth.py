@@ -26,11 +26,12 @@ import numpy as np
 import pytest
 
 import tactile_gym
-from agents.scripted import scripted_policy
+from agents.policies import make_policy
 from tactile_gym.sim import ProbeScene
 
 TRUTH = (
     "true_axis",
+    "true_joint_type",
     "edge_line",
     "object_config",
     "true_wrench",
@@ -49,6 +50,7 @@ FORBIDDEN = (
     "tactile_gym/envs/observation.py",
     "tactile_gym/envs/skills.py",
     "agents/scripted.py",
+    "agents/joint_scripted.py",
 )
 SCENE_FILE = "tactile_gym/sim/scene.py"
 
@@ -105,12 +107,12 @@ class _Random:
         return self.space.sample()
 
 
-@pytest.mark.parametrize("env_id", tactile_gym.ENV_IDS)
+@pytest.mark.parametrize("env_id", tactile_gym.ENV_IDS + tactile_gym.JOINT_ENV_IDS)
 @pytest.mark.parametrize("policy", ["scripted", "random"])
 def test_episodes_never_feed_truth_to_the_measurement_path(audit, env_id, policy):
     violations, reads = audit
     env = gym.make(env_id, max_steps=80)
-    agent = scripted_policy(env) if policy == "scripted" else _Random(env)
+    agent = make_policy("scripted", env) if policy == "scripted" else _Random(env)
     obs, _ = env.reset(seed=3)
     agent.reset()
     done = False

@@ -248,3 +248,22 @@ def test_the_skin_drags_a_slide_in_both_steps():
 def test_a_block_is_not_dragged():
     _, x = drag("v3", "block")
     assert np.all(x == 0.0)
+
+
+@pytest.mark.parametrize(("family", "travel"), [(f, -0.05) for f in SLIDES] + [("block", 0.0)])
+def test_slides_and_fixed_links_geometry_matches_pybullet(family, travel):
+    """The free box where PyBullet has the link (its AABB), and a slide's probed edge keeps its
+    direction and moves by the travel along the axis."""
+    from test_sim_world import world_aabb
+
+    with World() as world:
+        obj = HingedObject(world, ObjectConfig.family_default(family), 0.0)
+        p0, d0 = obj.edge_line
+        obj.reset(travel)
+        lo, hi = p.getAABB(obj.body_id, 0, physicsClientId=world.client_id)
+        mlo, mhi = world_aabb(obj.free_box)
+        np.testing.assert_allclose(lo, mlo, atol=1e-6)
+        np.testing.assert_allclose(hi, mhi, atol=1e-6)
+        p1, d1 = obj.edge_line
+        np.testing.assert_allclose(d1, d0, atol=1e-15)
+        np.testing.assert_allclose(p1 - p0, travel * obj.axis, atol=1e-15)
