@@ -40,7 +40,7 @@ TRUTH = (
     "joint_angle",
     "object",
 )
-ALLOWED_NAME = re.compile(r"^(_?true_\w*|\w*_error|turn_by_hand)$")
+ALLOWED_NAME = re.compile(r"^(_?true_\w*|\w*_error|\w+_by_hand)$")
 ROOT = Path(tactile_gym.__file__).resolve().parents[1]
 FORBIDDEN = (
     "tactile_gym/sensing/",
@@ -171,3 +171,15 @@ def test_table1_reads_truth_only_by_hand_and_for_the_error(audit):
     assert len(results) == 2
     assert not violations, violations[:5]
     assert any("turn_by_hand" in r for r in reads)
+
+
+def test_drawer_table_reads_truth_only_by_hand_and_for_the_error(audit):
+    """The drawer's protocol likewise: only the hand that carries the finger with the
+    drawer (``carried_by_hand``) and the error may read the truth."""
+    from agents import reproduce_drawer
+
+    violations, reads = audit
+    results = reproduce_drawer.reproduce(trials=1)
+    assert len(results) == 2
+    assert not violations, violations[:5]
+    assert any("carried_by_hand" in r for r in reads)
