@@ -10,12 +10,15 @@ where the task's error is measured (``axis_error``); ``position_std`` is the est
 It also gives Spearman's rho between each episode's final predicted error
 ``U = position_std + 0.05 m/rad * angle_std`` and its true ``E``.
 
-Three commands:
+Four commands:
 
-* ``record``: play episodes and store each one's accepted measurements (point, edge, stds,
-  edge covariance, in order), the prior and the truth in ``CACHE/<id>.npz``, with the truth
-  at every measurement (the true edge line and faces, the joint angle) for the error
-  analysis;
+* ``record``: play episodes with the env's own estimator and store each one's accepted
+  measurements (point, edge, stds, edge covariance, in order), the prior, the estimator's
+  loss and the true axis in ``CACHE/<id>.npz``, with the truth at every measurement (the
+  true edge line, the joint angle) for the error analysis;
+* ``errors``: each recorded measurement's error against the true edge line, in the probed
+  face's frame, against its handed noise: the figures behind the calibrated error model
+  (``tactile_gym.estimation.calibration``);
 * ``replay``: feed the recorded measurements through ``JointAxisEstimator`` with each
   ``--covariance`` and print the table. Approximate: in the env the gate's same-edge test and
   the policy react to the estimate, which a replay cannot;
@@ -23,16 +26,20 @@ Three commands:
   pipeline (as ``MeasurementPipeline`` builds it) and print the table: the figure to quote.
 
 Default seeds: the selection range (``agents.seeds``) for development; ``--seeds test`` for the
-final table.
+final table. ``--step-angle`` sets the scripted policy's turn (deg); ``--env-kwargs`` passes
+keywords to ``gym.make`` (a noise-free sensor: ``"sensor: {force_noise_std: 0,
+moment_noise_std: 0, force_drift: 0, moment_drift: 0}"``).
 
-    python benchmarks/calibration.py record --cache /tmp/calib --episodes 200
-    python benchmarks/calibration.py replay --cache /tmp/calib --covariance independent calibrated
-    python benchmarks/calibration.py play --seeds test --episodes 200 --covariance calibrated
+    python benchmarks/calibration.py record --cache /tmp/calib
+    python benchmarks/calibration.py errors --cache /tmp/calib
+    python benchmarks/calibration.py replay --cache /tmp/calib
+    python benchmarks/calibration.py play --seeds test
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -57,7 +64,7 @@ from tactile_gym.estimation import (  # noqa: E402
     axis_error,
     axis_nees,
 )
-from tactile_gym.estimation.calibration import CALIBRATED  # noqa: E402
+from tactile_gym.estimation.calibration import CALIBRATED, press_noise  # noqa: E402
 
 #: The ids measured: both tasks, both action modes.
 IDS = (
@@ -112,22 +119,24 @@ def score(estimate: AxisEstimate, pin: np.ndarray, direction: np.ndarray) -> Sco
 
 @dataclass
 class Episode:
-    """One episode's scores: at each checkpoint reached (None if not) and at the end."""
+    """One episode's scores: at each checkpoint it reached and at the end."""
 
     at: dict[int, Score] = field(default_factory=dict)
     final: Score | None = None
 
 
-def replay(record: dict, covariance: str, loss: str = "soft_l1") -> list[Episode]:
-    """Feed a recording's measurements, episode by episode, through a fresh estimator."""
+def replay(record: dict, covariance: str) -> list[Episode]:
+    """Feed a recording's measurements, episode by episode, through an estimator of the
+    recording's mode, loss and prior with ``covariance``."""
     prior = AxisPrior(
         record["prior_pin"],
         record["prior_pin_cov"],
         record["prior_direction"],
         float(record["prior_angle_std"]),
     )
-    mode = str(record["mode"])
-    estimator = JointAxisEstimator(mode=mode, loss=loss, prior=prior, covariance=covariance)
+    estimator = JointAxisEstimator(
+        mode=str(record["mode"]), loss=str(record["loss"]), prior=prior, covariance=covariance
+    )
     episodes = []
     bounds = np.concatenate([[0], np.cumsum(record["n_measurements"])])
     for k in range(len(record["seed"])):
@@ -176,7 +185,7 @@ class _Recorder:
     def step(self, wrench, rotation, position) -> int:
         added = self._step(wrench, rotation, position)
         if added:
-            scene = self.base._scene
+            scene = self.base.scene
             pin, direction = scene.true_axis
             edge_point, edge_direction = scene.edge_line
             for m in self.pipeline.measurements[-added:]:
@@ -240,22 +249,23 @@ def play(
         episodes.append(recorder.episode)
         counts.append(len(pipeline.measurements))
         truth.append((pin, direction))
-    prior = pipeline.estimator.prior
+    estimator = pipeline.estimator
     env.close()
     record = {
         key: np.array(values, dtype=float).reshape((-1, *shape))
         for (key, values), shape in zip(recorder.log.items(), MEASUREMENT_SHAPES, strict=True)
     }
     record.update(
-        mode=mode_of(env_id),
+        mode=estimator.mode,
+        loss=estimator.loss,
         seed=np.array(list(seeds)),
         n_measurements=np.array(counts),
         axis_point=np.array([t[0] for t in truth]),
         axis_direction=np.array([t[1] for t in truth]),
-        prior_pin=prior.pin,
-        prior_pin_cov=prior.pin_cov,
-        prior_direction=prior.direction,
-        prior_angle_std=prior.angle_std,
+        prior_pin=estimator.prior.pin,
+        prior_pin_cov=estimator.prior.pin_cov,
+        prior_direction=estimator.prior.direction,
+        prior_angle_std=estimator.prior.angle_std,
     )
     return episodes, record
 
@@ -267,7 +277,8 @@ def measurement_errors(record: dict) -> dict[str, np.ndarray]:
     of the face they are probed on), ``across`` the in-face normal of the edge pointing away
     from the pin. Returns (M,) arrays: the contact point's offset across the edge and along
     the face normal (m), the edge's error turning it within the face and out of it (rad),
-    their handed variances (rad^2) and the episode of each measurement.
+    their handed variances (rad^2), the episode of each measurement and the frame's
+    ``across`` and ``normal`` directions ((M, 3)).
     """
     episode = np.repeat(np.arange(len(record["seed"])), record["n_measurements"])
     normal = record["axis_direction"][episode]
@@ -283,6 +294,8 @@ def measurement_errors(record: dict) -> dict[str, np.ndarray]:
     cov = record["edge_cov"]
     return {
         "episode": episode,
+        "across": across,
+        "normal": normal,
         "point_across": np.einsum("ij,ij->i", offset, across),
         "point_normal": np.einsum("ij,ij->i", offset, normal),
         "edge_in": np.einsum("ij,ij->i", turn, across),
@@ -314,23 +327,39 @@ def print_errors(env_id: str, record: dict) -> None:
             f"  contact point {label}: mean {v.mean() * mm:.2f} mm, scatter within an "
             f"episode {_within(v, episode) * mm:.3f} mm"
         )
+    # The calibrated model's own edge covariance of each press, less the excess, which is
+    # fitted below: the handed covariance plus the noise-free press's error.
+    without = dataclasses.replace(CALIBRATED, edge_excess_std=0.0)
+    own = np.array(
+        [
+            press_noise(e / np.linalg.norm(e), 3, s, c, p, without)[0]
+            for e, s, c, p in zip(
+                record["edge"],
+                record["edge_std"],
+                record["edge_cov"],
+                record["point_std"],
+                strict=True,
+            )
+        ]
+    )
     excess = CALIBRATED.edge_excess_std**2
-    for key, var, label in (
-        ("edge_in", "var_in", "in the face"),
-        ("edge_out", "var_out", "out of it"),
+    for key, var, axis, label in (
+        ("edge_in", "var_in", "across", "in the face"),
+        ("edge_out", "var_out", "normal", "out of it"),
     ):
-        v, predicted = m[key], m[var]
+        v, handed = m[key], m[var]
+        model = np.einsum("ij,ijk,ik->i", m[axis], own, m[axis])
         rms = np.sqrt(np.mean(v**2)) * deg
-        handed = np.sqrt(predicted.mean()) * deg
-        z2 = np.mean(v**2 / predicted)
-        z2_excess = np.mean(v**2 / (predicted + excess))
         print(
             f"  edge turn {label}: mean {v.mean() * deg:.3f} deg, RMS {rms:.3f} deg, scatter"
-            f" within an episode {_within(v, episode) * deg:.3f} deg, handed RMS {handed:.3f}"
-            f" deg, z^2 {z2:.2f}, with edge_excess_std {z2_excess:.2f}"
+            f" within an episode {_within(v, episode) * deg:.3f} deg; predicted RMS handed"
+            f" {np.sqrt(handed.mean()) * deg:.3f} deg, calibrated"
+            f" {np.sqrt((model + excess).mean()) * deg:.3f} deg; z^2 handed"
+            f" {np.mean(v**2 / handed):.2f}, calibrated {np.mean(v**2 / (model + excess)):.2f}"
         )
     # The excess that makes the out-of-face z^2 one (mean over the measurements).
-    fitted = brentq(lambda s: np.mean(m["edge_out"] ** 2 / (m["var_out"] + s * s)) - 1.0, 0.0, 0.1)
+    square = m["edge_out"] ** 2
+    fitted = brentq(lambda s: np.mean(square / (model + s * s)) - 1.0, 0.0, 0.1)
     print(f"  edge excess for out-of-face z^2 = 1: {math.degrees(fitted):.3f} deg")
 
 
@@ -410,10 +439,11 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"{args.command} needs --cache DIR")
     seeds = range(SEEDS[args.seeds], SEEDS[args.seeds] + args.episodes)
     step = None if args.step_angle is None else math.radians(args.step_angle)
-    print(
-        f"{args.command}: {args.episodes} episodes per id, {args.seeds} seeds "
-        f"{seeds.start}..{seeds.stop - 1}\n"
-    )
+    if args.command in ("record", "play"):
+        print(
+            f"{args.command}: {args.episodes} episodes per id, {args.seeds} seeds "
+            f"{seeds.start}..{seeds.stop - 1}\n"
+        )
     results = []
     for env_id in args.ids:
         path = None if args.cache is None else args.cache / f"{env_id.split('/')[-1]}.npz"
@@ -426,6 +456,8 @@ def main(argv: list[str] | None = None) -> None:
         if args.command in ("errors", "replay"):
             with np.load(path) as stored:
                 record = dict(stored)
+            first, last = record["seed"][0], record["seed"][-1]
+            print(f"{args.command} {path}: {len(record['seed'])} episodes, seeds {first}..{last}")
         if args.command == "errors":
             print_errors(env_id, record)
             continue

@@ -10,6 +10,7 @@ for independent ones, must not.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +25,9 @@ from tactile_gym.estimation import (
     fit_axis_planar,
 )
 from tactile_gym.estimation.calibration import CALIBRATED, spot_counts
+from tactile_gym.estimation.fit3d import Fit3D, _total_cost
+from tactile_gym.estimation.interface import Measurements
+from tactile_gym.estimation.problem import Noise
 
 EDGE_STD = math.radians(2.0)  # rad, the handed total RMS edge error (isotropic)
 DISTANCE = 0.01  # m, edge line to axis
@@ -42,12 +46,11 @@ def _normal_basis(e: np.ndarray) -> np.ndarray:
 def _spot_presses(rng, axis_point, axis_dir, edge0, angles, levers, repeats, point_std):
     """Points and edges of ``repeats`` presses at each spot: the spot's shared bias (point
     offset of ``point_scatter`` per axis, edge error of ``edge_model_std``) plus white edge
-    noise, so that a press's total edge covariance is the handed isotropic one plus the
-    model's excess, as the calibrated model says."""
+    noise (the handed isotropic noise and the model's excess), as the calibrated model
+    says."""
     m = CALIBRATED
     shared_std = m.edge_model_std / math.sqrt(2.0)  # per normal direction
-    own_var = 0.5 * EDGE_STD**2 + m.edge_excess_std**2  # per normal direction
-    white_std = math.sqrt(own_var - shared_std**2)
+    white_std = math.sqrt(0.5 * EDGE_STD**2 + m.edge_excess_std**2)
     scatter = min(point_std, m.point_scatter)
     normal = np.cross(axis_dir, edge0)
     normal /= np.linalg.norm(normal)
@@ -163,8 +166,8 @@ def test_repeated_presses_follow_the_spot_mean_not_one_over_sqrt_n(repeats: int)
     many_edges = np.repeat(exact, repeats, axis=0)
     m = CALIBRATED
     point_var = m.point_scatter**2
-    own_z = 0.5 * EDGE_STD**2 + m.edge_excess_std**2
     shared_z = 0.5 * m.edge_model_std**2
+    own_z = 0.5 * EDGE_STD**2 + shared_z + m.edge_excess_std**2
     spot_var = point_var + lever**2 * ((own_z - shared_z) / repeats + shared_z)
     expected = fit_axis_planar(points, exact, 1.0 / spot_var).covariance[:2, :2]
     calibrated = _estimate("planar", "calibrated", many_points, many_edges, point_std)
@@ -198,8 +201,8 @@ def test_presses_at_distinct_spots_are_unchanged_by_the_sharing() -> None:
     calibrated = _estimate("planar", "calibrated", points, edges, 1e-3)
     m = CALIBRATED
     # The model's own noise of a press: the point's scatter, the handed isotropic edge
-    # error plus the excess in both normal directions.
-    total = math.sqrt(EDGE_STD**2 + 2.0 * m.edge_excess_std**2)
+    # error plus the noise-free error and the excess in both normal directions.
+    total = math.sqrt(EDGE_STD**2 + m.edge_model_std**2 + 2.0 * m.edge_excess_std**2)
     est = JointAxisEstimator(mode="planar", loss="linear")
     for x, e in zip(points, edges, strict=True):
         est.add(x, e, m.point_scatter, total)
@@ -256,3 +259,46 @@ def test_nees_of_a_planar_estimate_is_its_position_nees() -> None:
     assert position == pytest.approx(float(err @ np.linalg.solve(est.covariance[:2, :2], err)))
     assert direction == 0.0
     assert joint == position
+
+
+def _replay_recorded(multi_start: bool):
+    """The recorded presses of ``tests/data/consensus_local_minimum.npz`` through the
+    calibrated estimator with its 3D fit's ``multi_start`` as given: the last estimate, the
+    estimator and the true (pin, direction)."""
+    with np.load(Path(__file__).parent / "data" / "consensus_local_minimum.npz") as data:
+        rec = dict(data)
+    prior = AxisPrior(
+        rec["prior_pin"], rec["prior_pin_cov"], rec["prior_direction"], rec["prior_angle_std"]
+    )
+    est = JointAxisEstimator(mode="3d", loss="soft_l1", prior=prior, covariance="calibrated")
+    assert est._fit.multi_start
+    est._fit = Fit3D(est.loss, prior, multi_start=multi_start)
+    for x, e, sx, se, cov in zip(
+        rec["point"], rec["edge"], rec["point_std"], rec["edge_std"], rec["edge_cov"], strict=True
+    ):
+        est.add(x, e, sx, se, edge_cov=cov)
+        fit = est.estimate()
+    return fit, est, (rec["axis_point"], rec["axis_direction"])
+
+
+def test_a_full_fit_keeps_the_refined_last_solution_when_it_explains_more() -> None:
+    """Eight presses recorded from the scripted policy (HingeProbe3DPrimitive-v2, seed
+    200835): at the seventh and eighth the full fit's consensus settles 15 mm off with a
+    position std of 1.7 mm. With ``multi_start`` (the calibrated estimator's) the refined
+    last solution, which explains the presses better, is kept: 1.2 mm off, within its
+    predicted error."""
+    guarded, est, (pin, u) = _replay_recorded(multi_start=True)
+    plain, plain_est, _ = _replay_recorded(multi_start=False)
+    position, _ = axis_error(guarded, pin, u, pin)
+    assert position < 2.0 * guarded.position_std
+    assert axis_error(plain, pin, u, pin)[0] > 5.0 * plain.position_std
+    n = est.n_measurements
+    data = est._calibrated(
+        Measurements(est.points, est.edges, est._point_std[:n], est._edge_noise[:n])
+    )
+    noise = Noise(data.point_std, data.edge_noise)
+    guarded_cost, plain_cost = (
+        _total_cost(data.points, data.edges, noise, "soft_l1", e._fit.state, est.prior)
+        for e in (est, plain_est)
+    )
+    assert guarded_cost < plain_cost

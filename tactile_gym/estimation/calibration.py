@@ -13,23 +13,23 @@ A measurement's error is not all white sensor noise. What the online estimator's
   that part, and it is the spot's: presses at one spot share it.
 * **The edge errs out of the face more than the reading noise says.** The sensing's
   ``edge_cov`` is the first-order covariance of the averaged readings' noise. Out of the face
-  it leaves out the zero's own error (the tare's noise and the drift since the tare), the
-  noise-free press's error, and the tilt of its own thin direction, which follows the contact
-  normal rather than the face. ``edge_excess_std`` is added in every direction normal to the
-  edge, independent between presses.
-* **A spot's bias does not average away.** A press's noise-free error (its contact point's
-  depth, its edge's turn from the skin's node spacing and the edge's rounding) is a function
-  of where and how the fingertip presses: presses at one spot at one link angle share it,
-  whatever the readings' noise does. It is part of a press's own error (the scripted
-  presses' measured errors hold it); repeated, it is counted once per press at its spot: a
-  press among an effective ``m`` at one spot gets ``(m - 1)`` times the shared variance
-  added. For ``m`` presses at exactly one spot this is exact (their mean's variance is the
-  independent part over ``m`` plus the shared part), and a press alone keeps its own
-  variance. The shared edge part has the shape of the press's own edge covariance (the
-  noise-free error turns the edge as the noise does) and the total RMS ``edge_model_std``.
-  Presses count as one spot by their contact points' distance, ``exp(-|x_i - x_j|^2 /
-  (2 spot_radius^2))``: after a turn of the link the same place on the link lies elsewhere,
-  so a turned link is a new spot.
+  it leaves out the zero's own error (the tare's noise and the drift since the tare) and the
+  tilt of its own thin direction, which follows the contact normal rather than the face.
+  ``edge_excess_std`` is added in every direction normal to the edge, independent between
+  presses.
+* **A press's noise-free error adds to it, and a spot's does not average away.** With a
+  noise-free sensor the scripted presses' edges still err 0.6 deg within the face: the skin's
+  node spacing and the edge's rounding move the force line over the patch as the noise does.
+  The sensing's covariance leaves it out, so a press's own edge covariance gets it added,
+  with the shape of the handed covariance and the total RMS ``edge_model_std``. It is a
+  function of where and how the fingertip presses, as is the contact point's depth
+  (``point_scatter``): presses at one spot at one link angle share both, whatever the
+  readings' noise does. So a press among an effective ``m`` at one spot gets ``(m - 1)``
+  times these shared variances added: for ``m`` presses at exactly one spot their mean's
+  variance is then the independent part over ``m`` plus the shared part, as it is, and a
+  press alone keeps its own. Presses count as one spot by their contact points' distance,
+  ``exp(-|x_i - x_j|^2 / (2 spot_radius^2))``: after a turn of the link the same place on
+  the link lies elsewhere, so a turned link is a new spot.
 
 Conventions: world frame, metres, radians. The constants were measured on the scripted
 policy's presses of the development seeds (``benchmarks/calibration.py errors``); the
@@ -61,18 +61,19 @@ class ErrorModel:
             0.19-0.24 mm across the edge, 0.05-0.08 mm normal to the face.
         edge_excess_std: std added to the edge's error in each direction normal to it, rad,
             independent between presses: what makes the mean squared error out of the face
-            over its predicted variance one (0.129 deg on both tasks).
+            over its predicted variance one, the noise-free error included (0.121 and
+            0.126 deg on the planar and 3D tasks).
         edge_model_std: RMS (total over both normal directions) of the edge's noise-free
-            error between presses, rad: a part of a single press's edge covariance, of its
-            shape, shared by the presses at one spot. Measured with a noise-free sensor:
-            0.62-0.65 deg within the face (0.06-0.08 deg out of it).
+            error between presses, rad, added to each press's edge covariance in its shape
+            and shared by the presses at one spot. Measured with a noise-free sensor:
+            0.62-0.65 deg within the face, 0.06-0.08 deg out of it.
         spot_radius: distance between contact points over which presses count as one spot,
             m: about one and a half of the skin's node spacings (0.65 mm), over which the
             noise-free error of a press changes.
     """
 
     point_scatter: float = 2.5e-4
-    edge_excess_std: float = math.radians(0.13)
+    edge_excess_std: float = math.radians(0.12)
     edge_model_std: float = math.radians(0.6)
     spot_radius: float = 1e-3
 
@@ -103,6 +104,7 @@ def press_noise(
     Returns:
         ``(edge_cov_own, edge_cov_shared, point_var_own, point_var_shared)``: (3, 3) rad^2
         and m^2. The own parts hold the shared ones (a press alone has just its own).
+        Without any handed edge error the shared part is isotropic.
     """
     normal = _EYE3 - np.outer(edge, edge)
     if edge_cov is not None:
@@ -112,12 +114,14 @@ def press_noise(
         handed = edge_std * edge_std * np.outer(turn, turn)
     else:
         handed = isotropic_edge_covs(edge[None], edge_std)[0]
-    own = handed + model.edge_excess_std**2 * normal
-    # The noise-free error turns the edge as the noise does (both move the force line over
-    # the patch), so it takes the shape of the press's own covariance; a press whose own
-    # error is below it shares all of it.
-    total = float(np.trace(own))
-    shared = own * min(1.0, model.edge_model_std**2 / total) if total > 0.0 else own
+    # The noise-free error turns the edge as the reading noise does (both move the force
+    # line over the patch), so it takes the shape of the handed covariance.
+    total = float(np.trace(handed))
+    if total > 0.0:
+        shared = handed * (model.edge_model_std**2 / total)
+    else:
+        shared = 0.5 * model.edge_model_std**2 * normal
+    own = handed + shared + model.edge_excess_std**2 * normal
     point_var = min(point_std, model.point_scatter) ** 2
     return own, shared, point_var, point_var
 

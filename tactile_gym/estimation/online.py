@@ -134,8 +134,10 @@ class JointAxisEstimator:
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
         self._cached: AxisEstimate | None = None
         self._stale = True
-        fit = PlanarFit if self.mode == "planar" else Fit3D
-        self._fit = fit(self.loss, self.prior)
+        if self.mode == "planar":
+            self._fit = PlanarFit(self.loss, self.prior)
+        else:
+            self._fit = Fit3D(self.loss, self.prior, multi_start=self.covariance == "calibrated")
 
     @property
     def n_measurements(self) -> int:
