@@ -26,9 +26,10 @@ Four commands:
   pipeline (as ``MeasurementPipeline`` builds it) and print the table: the figure to quote.
 
 Default seeds: the selection range (``agents.seeds``) for development; ``--seeds test`` for the
-final table. ``--step-angle`` sets the scripted policy's turn (deg); ``--env-kwargs`` passes
-keywords to ``gym.make`` (a noise-free sensor: ``"sensor: {force_noise_std: 0,
-moment_noise_std: 0, force_drift: 0, moment_drift: 0}"``).
+final table. ``--axes vertical|tilted`` keeps a recording's episodes of vertical or tilted true
+axes (``errors``, ``replay``). ``--step-angle`` sets the scripted policy's turn (deg);
+``--env-kwargs`` passes keywords to ``gym.make`` (a noise-free sensor: ``"sensor:
+{force_noise_std: 0, moment_noise_std: 0, force_drift: 0, moment_drift: 0}"``).
 
     python benchmarks/calibration.py record --cache /tmp/calib
     python benchmarks/calibration.py errors --cache /tmp/calib
@@ -159,6 +160,30 @@ def replay(record: dict, covariance: str) -> list[Episode]:
         episode.final = score(estimator.estimate(), pin, direction)
         episodes.append(episode)
     return episodes
+
+
+#: Per-episode arrays of a recording (the rest are per measurement, or the prior's).
+EPISODE_KEYS = ("seed", "n_measurements", "axis_point", "axis_direction")
+#: Consecutive presses whose joint angles differ by less than this are at one link angle, rad.
+SAME_ANGLE = math.radians(0.3)
+#: An axis within this of vertical counts as vertical for ``--axes``, rad.
+VERTICAL_TOL = math.radians(0.5)
+
+
+def select_episodes(record: dict, axes: str) -> dict:
+    """The recording's episodes whose true axis is ``"vertical"`` or ``"tilted"``
+    (``"all"``: all of them)."""
+    if axes == "all":
+        return record
+    tilt = np.arccos(np.minimum(np.abs(record["axis_direction"][:, 2]), 1.0))
+    keep = (tilt < VERTICAL_TOL) == (axes == "vertical")
+    rows = np.repeat(keep, record["n_measurements"])
+    out = dict(record)
+    for key in EPISODE_KEYS:
+        out[key] = record[key][keep]
+    for key in MEASUREMENT_KEYS:
+        out[key] = record[key][rows]
+    return out
 
 
 def mode_of(env_id: str) -> str:
@@ -361,6 +386,22 @@ def print_errors(env_id: str, record: dict) -> None:
     square = m["edge_out"] ** 2
     fitted = brentq(lambda s: np.mean(square / (model + s * s)) - 1.0, 0.0, 0.1)
     print(f"  edge excess for out-of-face z^2 = 1: {math.degrees(fitted):.3f} deg")
+    cross = np.einsum("ij,ijk,ik->i", m["across"], record["edge_cov"], m["normal"])
+    handed = np.mean(cross / np.sqrt(m["var_in"] * m["var_out"]))
+    measured = np.corrcoef(m["edge_in"], m["edge_out"])[0, 1]
+    print(f"  edge turn in / out correlation: handed {handed:.2f}, measured {measured:.2f}")
+    # Consecutive presses at one link angle: the same spot pressed again.
+    again = (episode[1:] == episode[:-1]) & (np.abs(np.diff(record["joint_angle"])) < SAME_ANGLE)
+    if again.sum() > 2:
+        pairs = ", ".join(
+            f"{label} {np.corrcoef(m[key][:-1][again], m[key][1:][again])[0, 1]:.2f}"
+            for key, label in (
+                ("point_across", "point across"),
+                ("edge_in", "edge in"),
+                ("edge_out", "edge out"),
+            )
+        )
+        print(f"  {again.sum()} presses again at one link angle, errors correlated: {pairs}")
 
 
 def _ratio(numerator: np.ndarray, denominator: np.ndarray) -> str:
@@ -434,6 +475,12 @@ def main(argv: list[str] | None = None) -> None:
         "--step-angle", type=float, help="the scripted policy's turn, deg (default: its own)"
     )
     parser.add_argument("--env-kwargs", nargs="+", action=KeyValue, default={}, help=KEY_VALUE_HELP)
+    parser.add_argument(
+        "--axes",
+        choices=("all", "vertical", "tilted"),
+        default="all",
+        help="errors and replay: only the episodes whose true axis is so (default: all)",
+    )
     args = parser.parse_args(argv)
     if args.command != "play" and args.cache is None:
         parser.error(f"{args.command} needs --cache DIR")
@@ -454,8 +501,11 @@ def main(argv: list[str] | None = None) -> None:
             print(f"{env_id}: {len(seeds)} episodes, {record['point'].shape[0]} measurements")
             continue
         if args.command in ("errors", "replay"):
+            if not path.exists():
+                parser.error(f"no recording of {env_id} in {args.cache}: run record first")
             with np.load(path) as stored:
                 record = dict(stored)
+            record = select_episodes(record, args.axes)
             first, last = record["seed"][0], record["seed"][-1]
             print(f"{args.command} {path}: {len(record['seed'])} episodes, seeds {first}..{last}")
         if args.command == "errors":
