@@ -66,13 +66,15 @@ class JointAxisEstimator:
 
     ``covariance`` says what the handed noise means. ``"independent"`` (the default, the v2
     ids' estimator): each measurement's ``point_std`` and edge noise are its whole error,
-    independent of the others'. ``"calibrated"``: they are its bounds from the sensing, and
-    the fits use the error model of :mod:`~tactile_gym.estimation.calibration` (docs/design.md
-    6.9): the contact point's variation between presses in place of its bound, the edge's
-    error out of the face that the reading noise leaves out, and each spot's bias counted
-    once per press at that spot, so that repeated presses at one spot do not average it
-    away; with a prior, ``position_std`` is then taken at the axis point nearest the prior's
-    pin, where the task measures the position error (docs/design.md 6.7).
+    independent of the others'. ``"calibrated"``: they are the sensing's bounds, and the fits
+    use the error model of :mod:`~tactile_gym.estimation.calibration` (docs/design.md 6.9):
+    the contact point's variation between presses in place of its bound, the press's
+    noise-free edge error and the edge's error out of the face that the reading noise leaves
+    out, and each spot's bias counted once per press at that spot, so that repeated presses
+    at one spot do not average it away. With a prior its ``position_std`` is taken at the
+    axis point nearest the prior's pin, where the task measures the position error
+    (docs/design.md 6.7). Its 3D fit keeps the best of several refined starts (``Fit3D``'s
+    ``multi_start``), so that a local minimum does not make a confident wrong estimate.
 
     Both modes use ``loss``; how each fit uses it and warm-starts is told by
     :class:`~tactile_gym.estimation.fits.PlanarFit` and
