@@ -24,7 +24,27 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
 from .runs import save_statistics, statistics_path
 
-__all__ = ["Checkpoints", "FixedSeedVecEnv", "continue_evaluations", "fixed_seed_evaluation"]
+__all__ = [
+    "Checkpoints",
+    "FixedSeedVecEnv",
+    "TRUTH_INFO",
+    "WithoutTruth",
+    "continue_evaluations",
+    "fixed_seed_evaluation",
+]
+
+#: The entries of an env's ``info`` that come from the simulator's truth (the true errors and
+#: success, the true axis and joint angle, the noise-free contact force): what a truth-free
+#: run's training loop never sees (:class:`WithoutTruth`).
+TRUTH_INFO = (
+    "is_success",
+    "position_error",
+    "angle_error",
+    "true_axis_point",
+    "true_axis_direction",
+    "joint_angle",
+    "max_force",
+)
 
 
 class FixedSeedVecEnv(VecEnvWrapper):
@@ -62,6 +82,22 @@ class FixedSeedVecEnv(VecEnvWrapper):
             # The inner env has already reset itself unseeded: start the next seed instead
             # (the ended episode's last observation stays in the info).
             obs = self._reset_to(self.episode + 1)
+        return obs, rewards, dones, infos
+
+
+class WithoutTruth(VecEnvWrapper):
+    """A ``VecEnv`` whose infos lack the truth (:data:`TRUTH_INFO`): a truth-free run wraps
+    its training and evaluation envs in it, so that nothing SB3 does with infos (its success
+    rates, the evaluation's logs) reads the truth either."""
+
+    def reset(self):
+        return self.venv.reset()
+
+    def step_wait(self):
+        obs, rewards, dones, infos = self.venv.step_wait()
+        for info in infos:
+            for key in TRUTH_INFO:
+                info.pop(key, None)
         return obs, rewards, dones, infos
 
 

@@ -25,14 +25,33 @@ from .cli import require
 
 __all__ = [
     "ALGOS",
+    "CLASSES",
+    "ZOO_NAMES",
     "algo_kwargs",
     "algorithm_class",
     "check_hyperparameters",
     "load_hyperparameters",
     "resolve_config",
+    "TRUTH_FREE_TASK",
+    "truth_free_env_kwargs",
 ]
 
-ALGOS = ("ppo", "sac")
+#: The algorithms ``agents.train`` runs: stable-baselines3's PPO and SAC, and sb3-contrib's
+#: RecurrentPPO (an LSTM policy, for the 6-D ids: ``docs/design.md`` 12) and TQC.
+ALGOS = ("ppo", "sac", "recurrent_ppo", "tqc")
+#: Where rl-baselines3-zoo names an algorithm otherwise (``python -m rl_zoo3.train --algo``).
+ZOO_NAMES = {"recurrent_ppo": "ppo_lstm"}
+#: Each algorithm's class: (module, name).
+CLASSES = {
+    "ppo": ("stable_baselines3", "PPO"),
+    "sac": ("stable_baselines3", "SAC"),
+    "recurrent_ppo": ("sb3_contrib", "RecurrentPPO"),
+    "tqc": ("sb3_contrib", "TQC"),
+}
+#: The task settings of a run trained without the truth (``agents.train --truth-free``): the
+#: reward scores the estimator's predicted error, the workspace is centred on the start pose
+#: (``tactile_gym.envs.task``), so no reward, termination or selection reads the truth.
+TRUTH_FREE_TASK = {"reward_source": "predicted", "workspace_center": "start"}
 #: Keys of a training config that are not constructor arguments of the algorithm.
 RUN_KEYS = ("policy", "n_timesteps", "n_envs", "normalize", "env_kwargs")
 #: rl_zoo3 keys that agents.train does not implement (it would pass them to the algorithm).
@@ -80,7 +99,7 @@ def resolve_config(
     """The run's hyperparameters: the YAML, then the overrides, checked.
 
     Args:
-        algo: ``"ppo"`` or ``"sac"``.
+        algo: one of :data:`ALGOS`.
         env_id: a registered id.
         config_path: YAML of hyperparameters (name or path); defaults to the algo's.
         hyperparams: keys that replace the YAML's (like rl_zoo3's ``--hyperparams``).
@@ -125,12 +144,33 @@ def resolve_config(
     return config
 
 
+def truth_free_env_kwargs(env_kwargs: Mapping[str, Any] | None) -> dict:
+    """``env_kwargs`` with the ``task`` settings of :data:`TRUTH_FREE_TASK` merged into its
+    ``task`` mapping (the other task settings, such as ``prior_error``, kept).
+
+    Raises:
+        ValueError: a ``task`` that sets one of those keys to another value.
+    """
+    env_kwargs = copy.deepcopy(dict(env_kwargs or {}))
+    task = env_kwargs.get("task") or {}
+    if not isinstance(task, dict):
+        raise ValueError(f"env_kwargs task must be a mapping, got {task!r}")
+    for key, value in TRUTH_FREE_TASK.items():
+        if task.get(key, value) != value:
+            raise ValueError(
+                f"a truth-free run trains with task {key} {value!r}, got {task[key]!r}; "
+                "drop the setting or train without --truth-free"
+            )
+    env_kwargs["task"] = {**task, **TRUTH_FREE_TASK}
+    return env_kwargs
+
+
 def algorithm_class(algo: str) -> type:
     """The stable-baselines3 class of ``algo``."""
     if algo not in ALGOS:
         raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
-    sb3 = require("stable_baselines3", "train")
-    return {"ppo": sb3.PPO, "sac": sb3.SAC}[algo]
+    module, name = CLASSES[algo]
+    return getattr(require(module, "train"), name)
 
 
 def check_hyperparameters(algo: str, config: Mapping[str, Any]) -> None:

@@ -56,7 +56,9 @@ class RandomPolicy:
 
 
 class ModelPolicy:
-    """A stable-baselines3 model saved by ``agents.train``, with its own observation scaling.
+    """A stable-baselines3 model saved by ``agents.train``, with its own observation scaling;
+    a recurrent one (``recurrent_ppo``) carries its LSTM state from step to step, from zero at
+    each :meth:`reset`.
 
     Args:
         path: the model's zip.
@@ -77,14 +79,19 @@ class ModelPolicy:
         self.normalizer = load_statistics(
             saved, DummyVecEnv([lambda: env]), trust_pickle=trust_pickle
         )
+        self.reset()
 
     def reset(self) -> None:
-        pass
+        self.state = None
+        self.episode_start = np.ones(1, dtype=bool)
 
     def get_action(self, obs) -> np.ndarray:
         if self.normalizer is not None:
             obs = self.normalizer.normalize_obs(obs)
-        action, _ = self.model.predict(obs, deterministic=True)
+        action, self.state = self.model.predict(
+            obs, state=self.state, episode_start=self.episode_start, deterministic=True
+        )
+        self.episode_start = np.zeros(1, dtype=bool)
         return action
 
 

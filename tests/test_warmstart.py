@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 import tactile_gym  # noqa: F401 - registers the envs
-from agents.demos import record_demos
+from agents.demonstrations import record_demos
 from agents.warmstart import WarmStart, load_recipe, normalise_from_demos, warm_start
 
 pytest.importorskip("stable_baselines3")
