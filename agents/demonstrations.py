@@ -16,9 +16,7 @@ key                       shape       meaning
 ``obs.<name>``            (T, ...)    dict observations, one array per key, before each step
 ``obs``                   (T, n)      flat observations (``observation_mode="flat"``) instead
 ``final_obs.<name>``      (E, ...)    each episode's last observation (``final_obs``: flat)
-``acts``                  (T, A)      the actions the env executed (the env's action space)
-``labels``                (T, A)      with ``action_noise``: the demonstrator's own actions,
-                                      before the noise (what a clone is fitted to)
+``acts``                  (T, A)      the actions taken (the env's action space)
 ``rews``                  (T,)        rewards
 ``terminated``            (T,)        the step ended the episode as a failure
 ``truncated``             (T,)        the step ended the episode by the step budget
@@ -27,13 +25,8 @@ key                       shape       meaning
 ``final_position_error``  (E,)        m, at the episode's end (``info``; a record only:
                                       nothing that trains reads it)
 ``success``               (E,)        ``info["is_success"]`` at the end (a record only)
-``meta``                  ()          JSON: env id, ``gym.make`` keywords, policy, noise
+``meta``                  ()          JSON: env id, ``gym.make`` keywords, policy
 ========================  ==========  =====================================================
-
-With ``action_noise`` the env executes the demonstrator's action plus Gaussian noise, so the
-episodes visit the states a clone's own small errors lead to, and ``labels`` holds what the
-demonstrator, which closes its loop on the observations, would do there: the recovery a clone
-must learn (DART, Laskey et al. 2017; ``docs/design.md`` 12).
 
 The ``imitation`` library's trajectory format was the alternative; its release pins
 Gymnasium 0.29 and Stable-Baselines3 2.2, below this package's (design notes, Learning).
@@ -89,8 +82,6 @@ class Demos:
         meta: env id, ``gym.make`` keywords, policy.
         final_obs: each episode's last observation, as ``obs`` with ``E`` rows (None in files
             recorded before it was kept).
-        labels: ``(T, A)`` the demonstrator's own actions where the executed ones carry
-            noise (``action_noise``); None: they are ``acts``.
     """
 
     obs: dict[str, np.ndarray] | np.ndarray
@@ -104,13 +95,6 @@ class Demos:
     success: np.ndarray
     meta: dict[str, Any]
     final_obs: dict[str, np.ndarray] | np.ndarray | None = None
-    labels: np.ndarray | None = None
-
-    @property
-    def targets(self) -> np.ndarray:
-        """What a clone is fitted to: the demonstrator's own actions (``labels``, else
-        ``acts``)."""
-        return self.acts if self.labels is None else self.labels
 
     def __len__(self) -> int:
         return len(self.acts)
@@ -134,7 +118,6 @@ def record_demos(
     first_seed: int = DEMO_SEED,
     env_kwargs: dict[str, Any] | None = None,
     progress: Callable[[int], None] | None = None,
-    action_noise: float = 0.0,
 ) -> Demos:
     """The scripted policy's episodes seeded ``first_seed + k``.
 
@@ -144,25 +127,18 @@ def record_demos(
         first_seed: the first episode's seed.
         env_kwargs: ``gym.make`` keywords.
         progress: called with the number of episodes recorded after each one.
-        action_noise: standard deviation of Gaussian noise added to every executed action
-            component (clipped to the action space), drawn from a generator seeded by the
-            episode's seed; the demonstrator's own actions go to ``labels`` (module
-            docstring). 0: none.
 
     Raises:
-        ValueError: an unknown id, fewer than one episode, or a negative noise.
+        ValueError: an unknown id or fewer than one episode.
     """
     from .scripted import scripted_policy
 
     check_env_id("env_id", env_id)
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
-    if not action_noise >= 0.0:
-        raise ValueError(f"action_noise must be >= 0, got {action_noise!r}")
     env = gym.make(env_id, **(env_kwargs or {}))
     policy = scripted_policy(env)
-    steps: dict[str, list] = {key: [] for key in ("obs", "labels", *STEP_FIELDS)}
-    low, high = env.action_space.low, env.action_space.high
+    steps: dict[str, list] = {key: [] for key in ("obs", *STEP_FIELDS)}
     seeds, errors, successes, finals = [], [], [], []
     try:
         for k in range(episodes):
@@ -170,16 +146,10 @@ def record_demos(
             obs, info = env.reset(seed=seed)
             env.action_space.seed(seed)
             policy.reset()
-            noise = np.random.default_rng(seed)
             terminated = truncated = False
             while not (terminated or truncated):
-                label = policy.get_action(obs)
-                action = label
-                if action_noise > 0.0:
-                    shake = noise.normal(0.0, action_noise, label.shape)
-                    action = np.clip(label + shake, low, high).astype(label.dtype)
+                action = policy.get_action(obs)
                 steps["obs"].append(obs)
-                steps["labels"].append(label)
                 obs, reward, terminated, truncated, info = env.step(action)
                 for key, value in zip(
                     STEP_FIELDS, (action, reward, terminated, truncated, k), strict=True
@@ -203,14 +173,8 @@ def record_demos(
         seeds=np.asarray(seeds, dtype=np.int64),
         final_position_error=np.asarray(errors),
         success=np.asarray(successes, dtype=bool),
-        meta={
-            "env_id": env_id,
-            "env_kwargs": dict(env_kwargs or {}),
-            "policy": "scripted",
-            "action_noise": float(action_noise),
-        },
+        meta={"env_id": env_id, "env_kwargs": dict(env_kwargs or {}), "policy": "scripted"},
         final_obs=_stacked(finals),
-        labels=np.asarray(steps["labels"], dtype=np.float32) if action_noise > 0.0 else None,
     )
 
 
@@ -232,8 +196,6 @@ def save_demos(demos: Demos, path: str | Path) -> Path:
             arrays |= {f"{name}.{key}": array for key, array in value.items()}
         elif value is not None:
             arrays[name] = value
-    if demos.labels is not None:
-        arrays["labels"] = demos.labels
     np.savez_compressed(path, **arrays, meta=np.array(json.dumps(demos.meta)))
     return path
 
@@ -251,8 +213,7 @@ def load_demos(path: str | Path) -> Demos:
         obs, final_obs = (_read_obs(data, name) for name in ("obs", "final_obs"))
         fields = {k: data[k] for k in (*STEP_FIELDS, *EPISODE_FIELDS)}
         meta = json.loads(str(data["meta"]))
-        labels = data["labels"] if "labels" in data.files else None
-    return Demos(obs=obs, meta=meta, final_obs=final_obs, labels=labels, **fields)
+    return Demos(obs=obs, meta=meta, final_obs=final_obs, **fields)
 
 
 def _read_obs(data, name: str) -> dict[str, np.ndarray] | np.ndarray | None:

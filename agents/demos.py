@@ -8,8 +8,7 @@ runs the scripted policy (on the 6-D ids, the scripted skill executor) on episod
 ``DEMO_SEED + k`` (``agents.seeds``) and writes ``<out>/<Name>.npz``, whose format
 ``agents.demonstrations`` documents; with ``--minari DATASET_ID`` it also writes them as a
 Minari dataset, which ``minari.load_dataset(DATASET_ID)`` reads (the ``[clients]`` extra
-installs Minari). ``--action-noise`` perturbs the executed actions and keeps the
-demonstrator's own as the labels (``agents.demonstrations``).
+installs Minari).
 """
 
 from __future__ import annotations
@@ -47,18 +46,9 @@ def main(argv: list[str] | None = None) -> Path:
         metavar="KEY:VALUE",
         help=f"gym.make keywords, e.g. observation_mode:flat; {KEY_VALUE_HELP}",
     )
-    parser.add_argument(
-        "--action-noise",
-        type=float,
-        default=0.0,
-        help="std of Gaussian noise on the executed actions; the labels stay the "
-        "demonstrator's own (agents.demonstrations)",
-    )
     args = parser.parse_args(argv)
     start = time.monotonic()
-    demos = record_demos(
-        args.env, args.episodes, args.seed, args.env_kwargs, action_noise=args.action_noise
-    )
+    demos = record_demos(args.env, args.episodes, args.seed, args.env_kwargs)
     path = save_demos(demos, demos_path(args.out, args.env))
     if args.minari is not None:
         dataset = save_minari(demos, args.minari)

@@ -77,9 +77,6 @@ class WarmStart:
         learning_rate: Adam's step size for both fits.
         action_std: the policy's standard deviation during and after cloning, in units of
             the normalised action.
-        action_noise: standard deviation of the noise on the recorded demonstrations'
-            executed actions; the clone fits the demonstrator's own actions
-            (``agents.demonstrations``). 0: none.
     """
 
     demos: int | str = 0
@@ -88,7 +85,6 @@ class WarmStart:
     batch_size: int = 128
     learning_rate: float = 1e-3
     action_std: float = 0.2
-    action_noise: float = 0.0
 
     def __post_init__(self) -> None:
         if isinstance(self.demos, bool) or not isinstance(self.demos, (int, str)):
@@ -106,9 +102,6 @@ class WarmStart:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
                 raise ValueError(f"warm_start.{name} must be a number > 0, got {value!r}")
-        noise = self.action_noise
-        if isinstance(noise, bool) or not isinstance(noise, (int, float)) or not noise >= 0:
-            raise ValueError(f"warm_start.action_noise must be a number >= 0, got {noise!r}")
 
     @property
     def enabled(self) -> bool:
@@ -293,7 +286,7 @@ def warm_start(model, demos: Demos, recipe: WarmStart, seed: int = 0) -> dict[st
     else:
         policy = model.policy
         tensors, _ = policy.obs_to_tensor(obs)
-        actions = torch.as_tensor(demos.targets, device=policy.device)
+        actions = torch.as_tensor(demos.acts, device=policy.device)
         bc = behaviour_clone(
             policy, tensors, actions, recipe.bc_epochs, recipe.batch_size,
             recipe.learning_rate, recipe.action_std, generator,
@@ -429,7 +422,7 @@ def _warm_start_recurrent(policy, obs, demos: Demos, returns, recipe: WarmStart,
     import torch
 
     sequences = Sequences.of(
-        policy, obs, demos.episode, actions=demos.targets, returns=np.asarray(returns)
+        policy, obs, demos.episode, actions=demos.acts, returns=np.asarray(returns)
     )
     per_batch = max(1, math.ceil(recipe.batch_size / sequences.mask.shape[1]))
     critic = ("value_net.", "mlp_extractor.value_net.", "lstm_critic.", "critic.")
@@ -473,17 +466,14 @@ def _warm_start_off_policy(model, obs, demos: Demos, returns, recipe: WarmStart,
     tensors, _ = policy.obs_to_tensor(obs)
     targets = torch.as_tensor(np.asarray(returns), dtype=torch.float32, device=policy.device)
 
-    def squashed(acts: np.ndarray):
-        acts = policy.scale_action(acts) if policy.squash_output else acts
-        return torch.as_tensor(np.asarray(acts, dtype=np.float32), device=policy.device)
-
-    labels, executed = squashed(demos.targets), squashed(demos.acts)
+    acts = policy.scale_action(demos.acts) if policy.squash_output else demos.acts
+    actions = torch.as_tensor(np.asarray(acts, dtype=np.float32), device=policy.device)
     target_log_std = math.log(recipe.action_std)
 
     def nll(index):
         mean, log_std, _ = policy.actor.get_action_dist_params(_subset(tensors, index))
         normal = torch.distributions.Normal(torch.tanh(mean), recipe.action_std)
-        fit = -normal.log_prob(labels[index]).sum(dim=-1).mean()
+        fit = -normal.log_prob(actions[index]).sum(dim=-1).mean()
         return fit + ((log_std - target_log_std) ** 2).mean()
 
     bc = _minimise(
@@ -492,7 +482,7 @@ def _warm_start_off_policy(model, obs, demos: Demos, returns, recipe: WarmStart,
     )  # fmt: skip
 
     def squared_error(index):
-        predicted = policy.critic(_subset(tensors, index), executed[index])
+        predicted = policy.critic(_subset(tensors, index), actions[index])
         if isinstance(predicted, tuple):  # SAC: one Q-value per critic
             predicted = torch.cat(predicted, dim=1)
         wanted = targets[index].reshape(-1, *([1] * (predicted.dim() - 1)))
@@ -504,7 +494,7 @@ def _warm_start_off_policy(model, obs, demos: Demos, returns, recipe: WarmStart,
         recipe.learning_rate, generator,
     )  # fmt: skip
     policy.critic_target.load_state_dict(policy.critic.state_dict())
-    _fill_replay_buffer(model.replay_buffer, demos, np.asarray(executed.cpu()))
+    _fill_replay_buffer(model.replay_buffer, demos, np.asarray(actions.cpu()))
     return bc, value
 
 
@@ -566,15 +556,15 @@ def action_nll(model, demos: Demos, action_std: float) -> float:
     policy.set_training_mode(False)
     with torch.no_grad():
         if kind == "recurrent":
-            sequences = Sequences.of(policy, obs, demos.episode, actions=demos.targets)
+            sequences = Sequences.of(policy, obs, demos.episode, actions=demos.acts)
             index = torch.arange(len(sequences))
             return float(_sequence_nll(policy, sequences, index, action_std))
         tensors, _ = policy.obs_to_tensor(obs)
         if kind == "off_policy":
             mean = torch.tanh(policy.actor.get_action_dist_params(tensors)[0])
-            acts = policy.scale_action(demos.targets) if policy.squash_output else demos.targets
+            acts = policy.scale_action(demos.acts) if policy.squash_output else demos.acts
         else:
-            mean, acts = policy.get_distribution(tensors).distribution.mean, demos.targets
+            mean, acts = policy.get_distribution(tensors).distribution.mean, demos.acts
         acts = torch.as_tensor(np.asarray(acts, dtype=np.float32), device=policy.device)
         normal = torch.distributions.Normal(mean, action_std)
         return float(-normal.log_prob(acts).sum(dim=-1).mean())
@@ -618,9 +608,7 @@ def run_recipe(
             flush=True,
         )
         lines = ProgressLines(recipe.demos, "demonstrations", interval=10.0)
-        demos = record_demos(
-            env_id, recipe.demos, DEMO_SEED, env_kwargs, lines.update, recipe.action_noise
-        )
+        demos = record_demos(env_id, recipe.demos, DEMO_SEED, env_kwargs, lines.update)
         save_demos(demos, Path(run_dir) / "demos.npz")
     else:
         print(f"warm start: demonstrations from {recipe.demos}", flush=True)

@@ -51,9 +51,7 @@ def test_round_trip_keeps_shapes_seeds_and_meta(recorded):
         "env_id": ENV_ID,
         "env_kwargs": SHORT,
         "policy": "scripted",
-        "action_noise": 0.0,
     }
-    assert demos.labels is None and demos.targets is demos.acts
     env.close()
 
 
