@@ -22,9 +22,11 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from .policies import deadband
 from .runs import save_statistics, statistics_path
 
 __all__ = [
+    "ActionDeadband",
     "Checkpoints",
     "FixedSeedVecEnv",
     "TRUTH_INFO",
@@ -83,6 +85,25 @@ class FixedSeedVecEnv(VecEnvWrapper):
             # (the ended episode's last observation stays in the info).
             obs = self._reset_to(self.episode + 1)
         return obs, rewards, dones, infos
+
+
+class ActionDeadband(VecEnvWrapper):
+    """A ``VecEnv`` that executes every action component smaller than ``width`` in magnitude
+    as 0 (``agents.policies.deadband``): the algorithm sees the deadband as part of the env,
+    and a saved model acts through the same one (``agents.policies.ModelPolicy``)."""
+
+    def __init__(self, venv: VecEnv, width: float) -> None:
+        super().__init__(venv)
+        self.width = float(width)
+
+    def reset(self):
+        return self.venv.reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self.venv.step_async(deadband(actions, self.width))
+
+    def step_wait(self):
+        return self.venv.step_wait()
 
 
 class WithoutTruth(VecEnvWrapper):

@@ -33,6 +33,7 @@ __all__ = [
     "load_hyperparameters",
     "resolve_config",
     "TRUTH_FREE_TASK",
+    "load_deadband",
     "truth_free_env_kwargs",
 ]
 
@@ -163,6 +164,28 @@ def truth_free_env_kwargs(env_kwargs: Mapping[str, Any] | None) -> dict:
             )
     env_kwargs["task"] = {**task, **TRUTH_FREE_TASK}
     return env_kwargs
+
+
+def load_deadband(config_file: str | Path, env_id: str, width: float | None = None) -> float:
+    """The action deadband of ``env_id``: ``width`` if given, else the training config's
+    ``action_deadband`` table (keyed by env id beside the entries rl_zoo3 reads, as
+    ``warm_start``), else 0 (none). Action components smaller than it in magnitude are
+    executed as 0 (``agents.policies.deadband``).
+
+    Raises:
+        ValueError: a table that is not a mapping of env ids to numbers, or a width outside
+            [0, 1).
+    """
+    if width is None:
+        table = load_yaml(config_file).get("action_deadband") or {}
+        if not isinstance(table, dict):
+            raise ValueError(
+                f"action_deadband in {config_file} must map env ids to widths, got {table!r}"
+            )
+        width = table.get(env_id, 0.0)
+    if isinstance(width, bool) or not isinstance(width, (int, float)) or not 0 <= width < 1:
+        raise ValueError(f"action_deadband must be a number in [0, 1), got {width!r}")
+    return float(width)
 
 
 def algorithm_class(algo: str) -> type:

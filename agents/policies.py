@@ -33,6 +33,7 @@ __all__ = [
     "RandomPolicy",
     "check_model_env",
     "check_policies",
+    "deadband",
     "is_primitive_model_on_6d",
     "make_policy",
     "policy_labels",
@@ -40,6 +41,19 @@ __all__ = [
 ]
 
 BUILTIN_POLICIES = ("random", "scripted")
+
+
+def deadband(action: np.ndarray, width: float) -> np.ndarray:
+    """``action`` with every component smaller than ``width`` in magnitude set to 0.
+
+    A run trained with an action deadband (``agents.train --action-deadband``) acts through
+    it in training and here alike: the gate counts a control step as still only below 1 % of
+    a unit translation and 0.4 % of a unit rotation (``GateConfig.still_translation``,
+    ``still_rotation``), which a Gaussian policy's mean, let alone its samples, does not hit
+    by chance; the deadband makes holding still an action (``docs/design.md`` 12).
+    """
+    action = np.asarray(action)
+    return np.where(np.abs(action) < width, np.zeros_like(action), action)
 
 
 class RandomPolicy:
@@ -56,9 +70,9 @@ class RandomPolicy:
 
 
 class ModelPolicy:
-    """A stable-baselines3 model saved by ``agents.train``, with its own observation scaling;
-    a recurrent one (``recurrent_ppo``) carries its LSTM state from step to step, from zero at
-    each :meth:`reset`.
+    """A stable-baselines3 model saved by ``agents.train``, with its own observation scaling
+    and its run's action deadband (:func:`deadband`); a recurrent one (``recurrent_ppo``)
+    carries its LSTM state from step to step, from zero at each :meth:`reset`.
 
     Args:
         path: the model's zip.
@@ -75,6 +89,7 @@ class ModelPolicy:
         from stable_baselines3.common.vec_env import DummyVecEnv
 
         saved = model_run(Path(path))
+        self.deadband = saved.action_deadband
         self.model = load_model(saved, env, trust_pickle=trust_pickle)
         self.normalizer = load_statistics(
             saved, DummyVecEnv([lambda: env]), trust_pickle=trust_pickle
@@ -92,7 +107,7 @@ class ModelPolicy:
             obs, state=self.state, episode_start=self.episode_start, deterministic=True
         )
         self.episode_start = np.zeros(1, dtype=bool)
-        return action
+        return deadband(action, self.deadband) if self.deadband else action
 
 
 class PrimitiveModelPolicy:

@@ -168,6 +168,7 @@ class SavedModel:
         hyperparameters: the run's resolved config (``agents.train``'s runs only).
         layout: ``"agents.train"``, ``"rl_zoo3"`` or ``"none"`` (a lone zip).
         truth_free: the run trained without the truth (``agents.train --truth-free``).
+        action_deadband: the run's action deadband (``agents.policies.deadband``; 0: none).
     """
 
     path: Path
@@ -181,6 +182,7 @@ class SavedModel:
     hyperparameters: dict = field(default_factory=dict)
     layout: str = "none"
     truth_free: bool = False
+    action_deadband: float = 0.0
 
 
 def model_run(path: str | Path) -> SavedModel:
@@ -222,6 +224,7 @@ def read_run(path: str | Path) -> SavedModel:
             hyperparameters=dict(hyper),
             layout="agents.train" if config_file.exists() else "none",
             truth_free=bool(record.get("truth_free", False)),
+            action_deadband=float(record.get("action_deadband", 0.0)),
         )
     (params,) = zoo
     args = _load_zoo_yaml(params / "args.yml")

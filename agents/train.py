@@ -61,6 +61,7 @@ from .hyperparams import (
     ALGOS,
     algo_kwargs,
     algorithm_class,
+    load_deadband,
     resolve_config,
     truth_free_env_kwargs,
 )
@@ -126,6 +127,9 @@ class TrainArgs:
             predicted error, the workspace is centred on the start pose), and the envs' infos
             stripped of the truth (``agents.callbacks.WithoutTruth``), so that the periodic
             selection ranks by the truth-free return and nothing of the loop reads the truth.
+        action_deadband: execute action components smaller than this in magnitude as 0, in
+            training and whenever the model acts (``agents.policies.deadband``); None: the
+            config's ``action_deadband`` table for the id (``agents.hyperparams``), else 0.
     """
 
     algo: str = "ppo"
@@ -151,6 +155,7 @@ class TrainArgs:
     resume: bool = False
     warm_start: Mapping[str, Any] | None = None
     truth_free: bool = False
+    action_deadband: float | None = None
 
 
 class Trainer:
@@ -190,9 +195,9 @@ class Trainer:
         elif args.env_workers is not None:
             raise ValueError(f"env_workers needs vec_env 'vector', got vec_env {args.vec_env!r}")
         self.n_threads = int(args.n_threads or DEFAULT_TORCH_THREADS)
-        self.recipe = load_recipe(
-            preset_path("train", args.config_path or args.algo), args.env_id, args.warm_start
-        )
+        config_file = preset_path("train", args.config_path or args.algo)
+        self.recipe = load_recipe(config_file, args.env_id, args.warm_start)
+        self.deadband = load_deadband(config_file, args.env_id, args.action_deadband)
         self.env_kwargs = dict(self.config.get("env_kwargs") or {})
         self.selection_seeds = list(
             range(SELECTION_SEED, SELECTION_SEED + max(args.eval_episodes, 1))
@@ -277,7 +282,7 @@ class Trainer:
         from stable_baselines3.common.env_util import make_vec_env
         from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
-        from .callbacks import WithoutTruth
+        from .callbacks import ActionDeadband, WithoutTruth
         from .vec_env import make_sb3_vec_env
 
         if self.args.vec_env == "vector":
@@ -290,6 +295,8 @@ class Trainer:
             factory = functools.partial(make_env, self.args.env_id, **self.env_kwargs)
             vec_cls = SubprocVecEnv if self.args.vec_env == "subproc" and n > 1 else DummyVecEnv
             envs = make_vec_env(factory, n_envs=n, seed=first_seed, vec_env_cls=vec_cls)
+        if self.deadband:
+            envs = ActionDeadband(envs, self.deadband)
         return WithoutTruth(envs) if self.args.truth_free else envs
 
     def _open_run_dir(self) -> None:
@@ -330,6 +337,7 @@ class Trainer:
             "env_id": args.env_id,
             "seed": args.seed,
             "truth_free": args.truth_free,
+            "action_deadband": self.deadband,
             "command": args.command or shlex.join(sys.argv),
             "arguments": arguments,
             "resources": {
@@ -545,6 +553,13 @@ def main(argv: list[str] | None = None) -> Path:
         "by the truth-free return (agents.hyperparams.TRUTH_FREE_TASK)",
     )
     parser.add_argument(
+        "--action-deadband",
+        type=float,
+        default=None,
+        help="action components smaller than this act as 0, in training and after "
+        "(agents.policies.deadband); default: the config's action_deadband table, else 0",
+    )
+    parser.add_argument(
         "--checkpoint-freq", type=int, default=50_000, help="env steps between checkpoints; 0: none"
     )
     parser.add_argument(
@@ -599,6 +614,7 @@ def main(argv: list[str] | None = None) -> Path:
         device=args.device,
         warm_start=args.warm_start,
         truth_free=args.truth_free,
+        action_deadband=args.action_deadband,
         command=shlex.join(["python", "-m", parser.prog.split()[-1], *(argv or sys.argv[1:])]),
     )
 

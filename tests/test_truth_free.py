@@ -138,7 +138,6 @@ def test_a_truth_free_run_reads_no_truth(truth_free_as_is, wrong_truth, tmp_path
     assert wrong["run"] != truth_free_as_is["run"]
 
 
-@pytest.mark.slow
 def test_a_run_on_the_truth_does_read_it(truth_trained_as_is, wrong_truth, tmp_path):
     """The same pair trained on the truth differs: the check above can fail."""
     as_is = truth_trained_as_is
