@@ -372,7 +372,8 @@ class Trainer:
         kwargs = normalize if isinstance(normalize, dict) else {}
         kwargs = {"gamma": self.config.get("gamma", 0.99), **kwargs}
         if self.checkpoint is not None:
-            self.env = load_statistics(read_run(self.checkpoint), self.env, training=True)
+            training = not (self.recipe.enabled and self.recipe.freeze_statistics)
+            self.env = load_statistics(read_run(self.checkpoint), self.env, training=training)
         else:
             self.env = VecNormalize(self.env, **kwargs)
         eval_kwargs = {k: v for k, v in kwargs.items() if k != "norm_reward"}

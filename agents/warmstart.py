@@ -77,6 +77,10 @@ class WarmStart:
         learning_rate: Adam's step size for both fits.
         action_std: the policy's standard deviation during and after cloning, in units of
             the normalised action.
+        freeze_statistics: keep the ``VecNormalize`` statistics set from the demonstrations
+            for the whole run instead of updating them from its rollouts: a clone whose
+            actions must stay within a deadband (the 6-D ids, ``docs/design.md`` 12.1) acts
+            otherwise once its inputs' scaling drifts.
     """
 
     demos: int | str = 0
@@ -85,6 +89,7 @@ class WarmStart:
     batch_size: int = 128
     learning_rate: float = 1e-3
     action_std: float = 0.2
+    freeze_statistics: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.demos, bool) or not isinstance(self.demos, (int, str)):
@@ -102,6 +107,9 @@ class WarmStart:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
                 raise ValueError(f"warm_start.{name} must be a number > 0, got {value!r}")
+        freeze = self.freeze_statistics
+        if not isinstance(freeze, bool):
+            raise ValueError(f"warm_start.freeze_statistics must be true or false, got {freeze!r}")
 
     @property
     def enabled(self) -> bool:
@@ -277,6 +285,7 @@ def warm_start(model, demos: Demos, recipe: WarmStart, seed: int = 0) -> dict[st
         normalise_from_demos(vec_normalize, demos)
         obs = vec_normalize.normalize_obs(obs)
         rewards = vec_normalize.normalize_reward(rewards)
+        vec_normalize.training = not recipe.freeze_statistics
     generator = torch.Generator().manual_seed(seed)
     returns = demos.discounted_returns(model.gamma, rewards)
     if kind == "recurrent":

@@ -89,6 +89,7 @@ def test_a_recurrent_clone_is_fitted_as_it_acts(demos):
     assert sequences.mask.shape == (3, lengths.max())
     assert sequences.mask.sum(1).tolist() == lengths.tolist()
     assert np.exp(policy.log_std.detach().numpy()) == pytest.approx(0.2)
+    assert model.get_vec_normalize_env().training  # freeze_statistics is off by default
 
 
 def test_a_tqc_warm_start_clones_fits_and_fills_the_buffer(demos):
@@ -98,7 +99,8 @@ def test_a_tqc_warm_start_clones_fits_and_fills_the_buffer(demos):
     policy = model.policy
     obs = model.get_vec_normalize_env()
     before = action_nll(model, demos, 0.2)
-    stats = warm_start(model, demos, WarmStart(demos=1, bc_epochs=40, value_epochs=40))
+    recipe = WarmStart(demos=1, bc_epochs=40, value_epochs=40, freeze_statistics=True)
+    stats = warm_start(model, demos, recipe)
     assert stats["bc_loss"][-1] < stats["bc_loss"][0]
     assert stats["value_loss"][-1] < stats["value_loss"][0]
     for ours, target in zip(policy.critic.parameters(), policy.critic_target.parameters()):
@@ -120,6 +122,7 @@ def test_a_tqc_warm_start_clones_fits_and_fills_the_buffer(demos):
     np.testing.assert_array_equal(following[0], demos.obs["wrench"][1])
     assert action_nll(model, demos, 0.2) < before
     assert obs.obs_rms["wrench"].count > len(demos)  # the statistics saw the demonstrations
+    assert not obs.training  # and stay as they are (freeze_statistics)
 
 
 def _train(tmp_path, algo: str, seed: int = 0, **kwargs):
