@@ -82,12 +82,11 @@ def _check_selection_seeds(seed: int, episodes: int) -> int:
     return last
 
 
-def _scores(
-    names: list[str], episodes: int, seed: int, out: Path, workers: int, trust_pickle: bool,
-    score: str,
-) -> tuple[dict, dict[str, float], float]:  # fmt: skip
-    """Play ``scripted`` and every model on the selection episodes; returns the evaluation,
-    each model's score by its path, and scripted's."""
+def _with_scripted(
+    names: list[str], episodes: int, seed: int, out: Path, workers: int, trust_pickle: bool
+) -> dict:
+    """``agents.evaluate``'s result (``evaluation.json``) of ``scripted`` and the models on
+    the episodes from ``seed``."""
     evaluate.evaluate(
         ["scripted", *names],
         episodes=episodes,
@@ -97,7 +96,16 @@ def _scores(
         workers=workers,
         trust_pickle=trust_pickle,
     )
-    result = json.loads((out / "evaluation.json").read_text())
+    return json.loads((out / "evaluation.json").read_text())
+
+
+def _scores(
+    names: list[str], episodes: int, seed: int, out: Path, workers: int, trust_pickle: bool,
+    score: str,
+) -> tuple[dict, dict[str, float], float]:  # fmt: skip
+    """Play ``scripted`` and every model on the selection episodes; returns the evaluation,
+    each model's score by its path, and scripted's."""
+    result = _with_scripted(names, episodes, seed, out, workers, trust_pickle)
     scores = {
         spec["name"]: result["summaries"][label][score]
         for label, spec in result["policies"].items()
@@ -265,16 +273,7 @@ def _test_picks(
     """The picks and ``scripted`` on the test episodes: each pick's mean final error and mean
     paired difference from scripted (mm), their mean over picks, the ratio to scripted's mean,
     and the 95 % bootstrap interval across picks of the mean paired difference."""
-    evaluate.evaluate(
-        ["scripted", *picks],
-        episodes=episodes,
-        seed=seed,
-        out=out,
-        plot=False,
-        workers=workers,
-        trust_pickle=trust_pickle,
-    )
-    result = json.loads((out / "evaluation.json").read_text())
+    result = _with_scripted(picks, episodes, seed, out, workers, trust_pickle)
     label_of = {spec["name"]: label for label, spec in result["policies"].items()}
     detail = result["episodes_detail"]
 
