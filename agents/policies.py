@@ -135,6 +135,7 @@ class PrimitiveModelPolicy:
 
     def reset(self) -> None:
         self.executor.reset()
+        self.inner.reset()
 
     def get_action(self, obs: dict) -> np.ndarray:
         if episode_started(obs):
