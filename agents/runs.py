@@ -51,7 +51,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-from .hyperparams import ALGOS, algo_kwargs, algorithm_class
+from .hyperparams import ALGOS, ZOO_NAMES, algo_kwargs, algorithm_class
 
 __all__ = [
     "FRESH",
@@ -233,7 +233,7 @@ def read_run(path: str | Path) -> SavedModel:
     return SavedModel(
         path=path,
         run_dir=run_dir,
-        algo=args.get("algo"),
+        algo={zoo: ours for ours, zoo in ZOO_NAMES.items()}.get(args.get("algo"), args.get("algo")),
         env_id=args.get("env"),
         env_kwargs=dict(args.get("env_kwargs") or hyper.get("env_kwargs") or {}),
         normalize=bool(hyper.get("normalize", False)),
@@ -321,7 +321,8 @@ def model_class(algo: str, trust_pickle: bool) -> type:
     if algo in ALGOS:
         return algorithm_class(algo)
     if algo not in SB3_ALGOS:
-        raise ValueError(f"algo must be one of {(*ALGOS, *SB3_ALGOS)}, got {algo!r}")
+        known = (*ALGOS, *(a for a in SB3_ALGOS if a not in ALGOS))
+        raise ValueError(f"algo must be one of {known}, got {algo!r}")
     if not trust_pickle:
         raise ValueError(
             f"a {algo.upper()} model loads only by unpickling it (the package rebuilds the "
