@@ -16,8 +16,11 @@ episodes, and, with the clone alone acting (mean actions), the accepted measurem
 episode and the final position error, on episodes from the selection range
 (``agents.seeds``), beside the scripted policy on the same episodes.
 
+With ``--deadband W`` the clones act through an action deadband (components below ``W`` act
+as 0, ``agents.policies.deadband``), as the recurrent recipe's models do.
+
 Run: ``python benchmarks/clone_memory.py [--env ID] [--demos N] [--held-out N]
-[--episodes N] [--history K] [--epochs N] [--lstm-size N]``.
+[--episodes N] [--history K] [--epochs N] [--lstm-size N] [--clones ...] [--deadband W]``.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from agents.cli import make_env  # noqa: E402
 from agents.demonstrations import Demos, record_demos  # noqa: E402
 from agents.episodes import run_episode  # noqa: E402
+from agents.policies import deadband  # noqa: E402
 from agents.resources import torch_threads  # noqa: E402
 from agents.scripted import scripted_policy  # noqa: E402
 from agents.seeds import DEMO_SEED, SELECTION_SEED  # noqa: E402
@@ -182,8 +186,7 @@ class Deadband:
         self.policy.reset()
 
     def get_action(self, obs):
-        action = np.asarray(self.policy.get_action(obs))
-        return np.where(np.abs(action) < self.width, 0.0, action).astype(np.float32)
+        return deadband(np.asarray(self.policy.get_action(obs), dtype=np.float32), self.width)
 
 
 def play(policy, env_id: str, seeds: range) -> tuple[float, float, float]:
