@@ -100,10 +100,28 @@ def test_checkers_run_on_the_unwrapped_primitive_env(env_id, monkeypatch):
         gym_check_env(unwrapped)
     sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
     sb3_checker.check_env(unwrapped, warn=True)
-    # An out-of-bound action, as Gymnasium's own env tests step ``unwrapped`` with one.
-    unwrapped.reset(seed=0)
-    unwrapped.step(np.array([-5.0, 5.0, 0.0], np.float32))
     env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_an_out_of_bound_action_acts_as_its_bound_on_the_unwrapped_env(env_id):
+    """Gymnasium's own env tests (``test_box_actions_out_of_bound``) step ``unwrapped`` with
+    an action beyond the bounds and expect what the bound gives; their comparison is of
+    array observations, this one of the Dict observation."""
+    from gymnasium.utils.env_checker import data_equivalence
+
+    bound, beyond = (_make(env_id).unwrapped for _ in range(2))
+    high = bound.action_space.high
+    for env in (bound, beyond):
+        env.reset(seed=42)
+    for i in range(len(high)):
+        oob = high.copy()
+        oob[i] += 3.0
+        obs, *_ = bound.step(high)
+        oob_obs, *_ = beyond.step(oob)
+        assert data_equivalence(obs, oob_obs), i
+    bound.close()
+    beyond.close()
 
 
 # --------------------------------------------------------------------------- TorchRL

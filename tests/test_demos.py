@@ -8,7 +8,14 @@ import pytest
 
 import tactile_gym  # noqa: F401 - registers the envs
 from agents import demos as demos_module
-from agents.demos import EPISODE_FIELDS, STEP_FIELDS, load_demos, record_demos, save_demos
+from agents.demonstrations import (
+    EPISODE_FIELDS,
+    STEP_FIELDS,
+    load_demos,
+    record_demos,
+    save_demos,
+    save_minari,
+)
 
 ENV_ID = "tactile_gym/HingeProbePrimitive-v2"
 SHORT = {"max_primitives": 6}
@@ -40,7 +47,11 @@ def test_round_trip_keeps_shapes_seeds_and_meta(recorded):
     assert np.flatnonzero(ends).tolist() == [
         int(np.flatnonzero(demos.episode == k)[-1]) for k in range(2)
     ]
-    assert demos.meta == {"env_id": ENV_ID, "env_kwargs": SHORT, "policy": "scripted"}
+    assert demos.meta == {
+        "env_id": ENV_ID,
+        "env_kwargs": SHORT,
+        "policy": "scripted",
+    }
     env.close()
 
 
@@ -99,7 +110,7 @@ def test_demos_as_a_minari_dataset_that_minari_loads(recorded, tmp_path, monkeyp
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
     demos = load_demos(recorded)
     dataset_id = "tactile_gym/HingeProbePrimitive-v2/scripted-v0"
-    demos_module.save_minari(demos, dataset_id)
+    save_minari(demos, dataset_id)
     dataset = minari.load_dataset(dataset_id)
     assert dataset.total_episodes == 2 and dataset.total_steps == len(demos)
     for episode in dataset.iterate_episodes():

@@ -24,7 +24,7 @@ from tactile_gym.envs.scenarios import (
     sample_scenario,
 )
 from tactile_gym.envs.task import TaskConfig
-from tactile_gym.estimation import LOSSES, AxisPrior, JointAxisEstimator
+from tactile_gym.estimation import COVARIANCES, LOSSES, AxisPrior, JointAxisEstimator
 from tactile_gym.perception import GateConfig, MeasurementPipeline, StreamLimits
 from tactile_gym.perception.log import LogHeader
 from tactile_gym.sensing import SENSOR_MODELS, FingertipGeometry, SensorConfig
@@ -63,6 +63,10 @@ class HingeProbeConfig:
             families whose joint type is in ``JOINT_TYPES``).
         estimator: ``"planar"`` (axis along world z, paper eq. 16-21) or ``"3d"``.
         estimator_loss: robust loss of the estimator (``tactile_gym.estimation.LOSSES``).
+        estimator_covariance: what the estimator takes each measurement's handed noise for
+            (``tactile_gym.estimation.COVARIANCES``): ``"independent"`` (the v2 and v1 ids')
+            or ``"calibrated"`` (with the systematic parts of a press's error,
+            ``docs/design.md`` 6.9; the v3 ids').
         observation_mode: ``"dict"`` or ``"flat"`` (one Box in the order of
             ``tactile_gym.envs.observation.OBSERVATION_LAYOUT``).
         max_steps: control steps before the episode is truncated.
@@ -90,6 +94,7 @@ class HingeProbeConfig:
     families: tuple[str, ...] = ("scissors",)
     estimator: str = "planar"
     estimator_loss: str = "soft_l1"
+    estimator_covariance: str = "independent"
     observation_mode: str = "dict"
     max_steps: int = 400
     time_step: float = TIME_STEP
@@ -123,6 +128,7 @@ class HingeProbeConfig:
         object.__setattr__(self, "families", tuple(families))
         check_choice("estimator", self.estimator, ("planar", "3d"))
         check_choice("estimator_loss", self.estimator_loss, LOSSES)
+        check_choice("estimator_covariance", self.estimator_covariance, COVARIANCES)
         check_choice("observation_mode", self.observation_mode, ("dict", "flat"))
         if self.estimator == "planar" and set(self.families) - set(PLANAR_FAMILIES):
             raise ValueError(
@@ -217,7 +223,12 @@ class HingeProbeConfig:
             self.sensor_config,
             self.skin_config.normal_stiffness,
             self.gate_config,
-            JointAxisEstimator(mode=self.estimator, loss=self.estimator_loss, prior=prior),
+            JointAxisEstimator(
+                mode=self.estimator,
+                loss=self.estimator_loss,
+                prior=prior,
+                covariance=self.estimator_covariance,
+            ),
             edge_distance,
             StreamLimits(period=self.time_step * self.substeps),
         )
@@ -232,7 +243,11 @@ class HingeProbeConfig:
             fingertip=dataclasses.asdict(geometry),
             sensor=dataclasses.asdict(self.sensor_config),
             gate=dataclasses.asdict(self.gate_config),
-            estimator={"mode": self.estimator, "loss": self.estimator_loss},
+            estimator={
+                "mode": self.estimator,
+                "loss": self.estimator_loss,
+                "covariance": self.estimator_covariance,
+            },
             prior={
                 "pin": prior.pin.tolist(),
                 "pin_cov": prior.pin_cov.tolist(),
