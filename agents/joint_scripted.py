@@ -14,7 +14,7 @@ One episode, in primitives of the ``JointProbePrimitive`` ids (a ``probe`` press
    (``revolute_confidence``), the hinge ids' protocol carries on (turns sized from the
    lever, ``agents.scripted.PrimitiveProber``). Otherwise the link slid or did not move, and
    one edge cannot tell a slide along it from rigid, nor a slide's direction in the plane
-   (``docs/design.md`` 6.9): **find B**, an edge square to A at one end of A (probes
+   (``docs/design.md`` 6.10): **find B**, an edge square to A at one end of A (probes
    stepping along A, ``search_step`` apart, 10 mm in from A, until one lands at B), then
    cycle: probe A, probe B, probe A, push.
 

@@ -8,7 +8,7 @@ The scene: a drawer whose top face (200 mm wide at the front, 300 mm deep, 50 mm
 probed from above, on the table at a yaw drawn per trial within +-5 deg of the nominal one
 (never told), sliding along its sides. Each trial (issue 28, item 5): at four displacements
 10 mm apart, pulled out by hand, the finger measures the front edge and a side edge (one
-horizontal edge cannot give a direction in the table plane: ``docs/design.md`` 6.9). Then
+horizontal edge cannot give a direction in the table plane: ``docs/design.md`` 6.10). Then
 the direction of the slide is estimated from the edge lines (the prismatic model,
 ``tactile_gym.estimation.fit_slide_direction``, the lines and displacements labelled as the
 operator pressed them) and by the simple method (the direction of the contact points'

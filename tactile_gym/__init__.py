@@ -54,7 +54,7 @@ _TASKS = (
 )
 
 # The joint ids (issue 28): the joint type unknown, each reset drawing a family of any joint;
-# born on the v3 contact step (docs/design.md 3.6, 7.12).
+# born on the v3 ids' keywords, _V3 (docs/design.md 7.12).
 _JOINT_PLANAR = {"families": ("scissors", "slider", "block"), "estimator": "planar"}
 _JOINT_3D = {"families": ("door", "tilted", "drawer", "tilted_drawer", "block"), "estimator": "3d"}
 _JOINT_SIX_D = (
@@ -114,7 +114,7 @@ for _name, (_entry, _vector_entry), _kwargs in _JOINT_TASKS if register else ():
         id=f"tactile_gym/{_name}-v0",
         entry_point=_entry,
         vector_entry_point=_vector_entry,
-        kwargs={**_kwargs, "physics": "v3"},
+        kwargs={**_kwargs, **_V3},
     )
 
 __all__ = ["ENV_IDS", "JOINT_ENV_IDS", "LEGACY_ENV_IDS", "PRIMITIVE_ENV_IDS", "__version__"]

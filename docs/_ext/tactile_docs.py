@@ -241,8 +241,8 @@ def env_page(family: EnvFamily, documented: set[str]) -> str:
             (
                 "Each reset draws one of the id's families, so the joint type is unknown."
                 if family.joint
-                else "The v2 ids are the current ones; the v1 ids stay registered unchanged"
-                " (Version History below)."
+                else "The v3 ids are the current ones; the v2 and v1 ids stay registered"
+                " unchanged (Version History below)."
             )
             + " Every id is made by `gym.make(id)` after `import tactile_gym`."
             f" This page is the docstring of {{py:class}}`~{full_name}`.",

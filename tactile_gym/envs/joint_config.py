@@ -62,7 +62,8 @@ class JointProbeConfig(HingeProbeConfig):
             range) come from the reset distribution (``joint_type_prior``).
 
     The rest as ``HingeProbeConfig``, with 800 control steps (40 s: telling the joint apart
-    takes pushes as well as presses), the v3 contact step by default, and ``scenario``
+    takes pushes as well as presses), the v3 ids' contact step and calibrated covariance by
+    default (``physics="v3"``, ``estimator_covariance="calibrated"``), and ``scenario``
     applied over ``JOINT_SCENARIO`` (every family's layout yawed at random; with the 3D
     estimator, the probed edge at a height drawn for every family). ``task.reward_source``
     must be ``"truth"`` (the joint task has no predicted error to score).
@@ -73,6 +74,7 @@ class JointProbeConfig(HingeProbeConfig):
     families: tuple[str, ...] = ("scissors", "slider", "block")
     max_steps: int = 800
     physics: str = "v3"
+    estimator_covariance: str = "calibrated"
     labels: dict = field(default_factory=dict)
     joint_prior: dict = field(default_factory=dict)
 
@@ -127,6 +129,7 @@ class JointProbeConfig(HingeProbeConfig):
             mode=self.estimator,
             prior=self.joint_type_prior(geometry),
             loss=self.estimator_loss,
+            covariance=self.estimator_covariance,
         )
         return JointPipeline(
             geometry,

@@ -32,9 +32,9 @@ class JointProbeEnv(HingeProbeEnv):
     ## Description
 
     The fingertip, the skin, the F/T sensor, the controller, the taring and the measurement
-    gate are ``HingeProbeEnv``'s (``tactile_gym/envs/hinge_probe.py``), on the v3 contact step
-    (``docs/design.md`` 3.6). Each reset draws an object from the id's families, so the joint
-    type is unknown to the policy:
+    gate are ``HingeProbeEnv``'s (``tactile_gym/envs/hinge_probe.py``), on the v3 ids' contact
+    step and calibrated covariance (``docs/design.md`` 3.6, 6.9). Each reset draws an object
+    from the id's families, so the joint type is unknown to the policy:
 
     | id                  | families                                          | estimator |
     |---------------------|---------------------------------------------------|-----------|
@@ -49,7 +49,7 @@ class JointProbeEnv(HingeProbeEnv):
     travel. The measurement pipeline (``tactile_gym.perception.JointPipeline``) labels each
     accepted press by the edge line it was on and the link configuration it was taken at, both
     from the readings and the poses alone, and hands it to the joint-type estimator
-    (``tactile_gym.estimation.JointTypeEstimator``, ``docs/design.md`` 6.9, 7.12), which
+    (``tactile_gym.estimation.JointTypeEstimator``, ``docs/design.md`` 6.10, 7.12), which
     weighs rigid, revolute and prismatic models (and "none") by their evidence. A link moves
     only when pushed: pressing is measuring, dragging the sticking skin across or along the
     face moves a hinged or sliding link, and what moved between presses tells the joint.
@@ -134,7 +134,7 @@ class JointProbeEnv(HingeProbeEnv):
 
     ## Version History
 
-    * v0: initial release, on the v3 contact step.
+    * v0: initial release, on the v3 ids' contact step and calibrated covariance.
     """
 
     config_class = JointProbeConfig

@@ -40,7 +40,7 @@ from tactile_gym.estimation.lines import (
     line_residuals,
     line_rows,
 )
-from tactile_gym.estimation.online import JointAxisEstimator
+from tactile_gym.estimation.online import COVARIANCES, JointAxisEstimator
 from tactile_gym.estimation.prior import PIN_STD_FLOOR, AxisPrior
 from tactile_gym.estimation.problem import _PriorTerm, basis
 from tactile_gym.estimation.robust import check_loss
@@ -895,7 +895,7 @@ class PrismaticModel(_LineModel):
         is that of its most probable component (the fitted one, or an edge's), and its
         covariance the mixture's about it: each component's, plus its direction's offset
         from the reported one, weighted by its posterior probability (``docs/design.md``
-        6.9)."""
+        6.10)."""
         log_rigid = self._rigid_log_evidence(data, rigid)
         state, ev, info = self._fit_state(data, log_rigid)
         v = state.joint
@@ -960,15 +960,24 @@ class RevoluteModel(_LineModel):
         mode: ``"planar"`` (vertical axis) or ``"3d"``.
         prior: the priors.
         loss: the axis fit's loss (one of ``LOSSES``).
+        covariance: what the axis fit takes the handed noise for (``COVARIANCES``:
+            ``"independent"`` or ``"calibrated"``, :class:`JointAxisEstimator`).
     """
 
     joint_type = "revolute"
 
     def __init__(
-        self, mode: str = "3d", prior: JointTypePrior | None = None, loss: str = "soft_l1"
+        self,
+        mode: str = "3d",
+        prior: JointTypePrior | None = None,
+        loss: str = "soft_l1",
+        covariance: str = "independent",
     ) -> None:
         check_loss(loss)
+        if covariance not in COVARIANCES:
+            raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
         self.loss = loss
+        self.covariance = covariance
         super().__init__(mode, prior)
         self.motion_range = self.prior.turn_range
 
@@ -984,7 +993,9 @@ class RevoluteModel(_LineModel):
         primary = int(np.argmax(np.bincount(data.line)))
         if self._axis_fit is None or primary != self._primary:
             prior = self.prior.axis_prior(self.mode, data.x[0])
-            self._axis_fit = JointAxisEstimator(self.mode, self.loss, prior=prior)
+            self._axis_fit = JointAxisEstimator(
+                self.mode, self.loss, prior=prior, covariance=self.covariance
+            )
             self._primary, self._fed = primary, 0
         idx = np.flatnonzero(data.line == primary)
         for i in idx[self._fed :]:

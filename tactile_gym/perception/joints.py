@@ -5,7 +5,7 @@ configuration, handed to the joint-type estimator (``docs/design.md`` 7.12).
 stream checks, the tare, the touch sensing and the gate, unchanged) with a
 :class:`~tactile_gym.estimation.JointTypeEstimator` in place of the axis estimator. The joint
 estimator needs two labels per press that nothing in a stream states
-(``docs/design.md`` 6.9); the pipeline derives both from the readings and the fingertip's
+(``docs/design.md`` 6.10); the pipeline derives both from the readings and the fingertip's
 poses alone, so that a robot's log is labelled as the env's stream is:
 
 * **configuration** (``LabelConfig.push_travel``): presses share a configuration unless the
