@@ -11,10 +11,10 @@ plays ``--episodes`` test episodes (seeds from ``agents.seeds.TEST_SEED``) with
    of episodes that never do);
 2. per id, the confusion matrix (rows the true type, columns the most probable outcome);
 3. with ``--paired N``, the revolute families on the primitive ids against the HingeProbe
-   ids' scripted baseline on the same N episodes (the same scenario draws: the HingeProbe ids
-   made with the joint ids' families, layout and v3 step, both 400 control steps): the
-   paired difference of the final position errors, its mean and percentile-bootstrap 95 %
-   interval (``agents.compare``).
+   ids' scripted baseline on the same N episodes (the same scenario draws: the v3 HingeProbe
+   ids, whose physics and estimator the joint ids share, made with the joint ids' revolute
+   families and layout, both 400 control steps): the paired difference of the final
+   position errors, its mean and percentile-bootstrap 95 % interval (``agents.compare``).
 
 On a 6-D id a primitive is one the skill executor ran (``SkillProber``'s choices).
 """
@@ -154,7 +154,7 @@ def paired(joint_id: str, hinge_id: str, episodes: int, steps: int) -> None:
     full = gym.make(joint_id)
     prior = {"type_probabilities": full.unwrapped.pipeline.estimator.prior.type_probabilities}
     full.close()
-    common = {"families": revolute, "max_steps": steps, "physics": "v3"}
+    common = {"families": revolute, "max_steps": steps}
     seeds = range(TEST_SEED, TEST_SEED + episodes)
     joint = play(joint_id, seeds, **common, joint_prior=prior)
     env = gym.make(hinge_id, scenario=dict(JOINT_SCENARIO[estimator]), **common)
@@ -196,8 +196,8 @@ def main(argv: list[str] | None = None) -> None:
         print(f"({time.perf_counter() - start:.0f} s)", flush=True)
     if args.paired:
         for joint_id, hinge_id in (
-            ("tactile_gym/JointProbePrimitive-v0", "tactile_gym/HingeProbePrimitive-v2"),
-            ("tactile_gym/JointProbe3DPrimitive-v0", "tactile_gym/HingeProbe3DPrimitive-v2"),
+            ("tactile_gym/JointProbePrimitive-v0", "tactile_gym/HingeProbePrimitive-v3"),
+            ("tactile_gym/JointProbe3DPrimitive-v0", "tactile_gym/HingeProbe3DPrimitive-v3"),
         ):
             paired(joint_id, hinge_id, args.paired, 400)
 
