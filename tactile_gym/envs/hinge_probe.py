@@ -13,6 +13,7 @@ task (``task.py``: reward and termination from the ground truth) and the observa
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -223,11 +224,13 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 20}
-    #: The config, task and observation codec of the ids (an env of other ids that reuses
-    #: this one's machinery, ``JointProbeEnv``, sets its own).
+    #: The config, task, observation codec and the observation's arrays from the pipeline
+    #: of the ids (an env of other ids that reuses this one's machinery, ``JointProbeEnv``,
+    #: sets its own).
     config_class: ClassVar[type[HingeProbeConfig]] = HingeProbeConfig
     task_class: ClassVar[type[AxisEstimationTask]] = AxisEstimationTask
     observation_codec: ClassVar[ObservationCodec] = OBSERVATION
+    observation_parts: ClassVar[Callable[..., dict]] = staticmethod(pipeline_parts)
 
     def __init__(
         self,
@@ -376,7 +379,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
     def _observation(self):
         """The observation of the current state (reads state only, changes nothing)."""
         scene = self._scene
-        parts = pipeline_parts(
+        parts = self.observation_parts(
             self.pipeline,
             scene.fingertip_position,
             scene.fingertip_orientation,

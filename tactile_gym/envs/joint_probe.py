@@ -140,21 +140,12 @@ class JointProbeEnv(HingeProbeEnv):
     config_class = JointProbeConfig
     task_class = JointTypeTask
     observation_codec = JOINT_OBSERVATION
+    observation_parts = staticmethod(joint_pipeline_parts)
 
     @property
     def joint_estimate(self) -> JointTypeEstimate:
         """The current joint-type estimate (``tactile_gym.estimation.JointTypeEstimate``)."""
         return self.pipeline.joint_estimate
-
-    def _observation(self):
-        scene = self._scene
-        parts = joint_pipeline_parts(
-            self.pipeline,
-            scene.fingertip_position,
-            scene.fingertip_orientation,
-            time_left=1.0 - self._steps / self.config.max_steps,
-        )
-        return self.codec.encode(parts, self.config.observation_mode)
 
     # ------------------------------------------------------------------ ground truth
     def _true_errors(self) -> tuple[float, float]:

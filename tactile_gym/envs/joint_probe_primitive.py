@@ -225,7 +225,7 @@ class JointProbePrimitiveEnv(HingeProbePrimitiveEnv):
 
     ## Version History
 
-    * v0: initial release, on the v3 contact step.
+    * v0: initial release, on the v3 ids' contact step and calibrated covariance.
     """
 
     executor_class = JointPrimitiveExecutor
