@@ -38,7 +38,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agents.scripted import Policy, PrimitiveProber, ProberConfig, SkillProber
 from tactile_gym.envs.joint_probe_primitive import (
     JOINT_SCALES,
     JointPrimitiveExecutor,
@@ -56,6 +55,8 @@ from tactile_gym.estimation import OUTCOMES
 from tactile_gym.perception.gate import line_distance
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.spatial import quaternion_to_matrix
+
+from .scripted import Policy, PrimitiveProber, ProberConfig, SkillProber
 
 __all__ = ["JointProber", "JointProberConfig", "joint_policy"]
 

@@ -103,7 +103,7 @@ def test_checkers_run_on_the_unwrapped_primitive_env(env_id, monkeypatch):
     env.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_an_out_of_bound_action_acts_as_its_bound_on_the_unwrapped_env(env_id):
     """Gymnasium's own env tests (``test_box_actions_out_of_bound``) step ``unwrapped`` with
     an action beyond the bounds and expect what the bound gives; their comparison is of

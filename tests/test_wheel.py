@@ -111,7 +111,7 @@ for kind in KINDS:
 assert "default" in load_preset("train", "ppo")
 for family in FAMILIES:
     ObjectConfig.family_default(family)
-for env_id in tactile_gym.ENV_IDS:
+for env_id in tactile_gym.ENV_IDS + tactile_gym.JOINT_ENV_IDS:
     env = gym.make(env_id)
     obs, _ = env.reset(seed=0)
     for _ in range(3):
