@@ -14,7 +14,7 @@ plays ``--episodes`` test episodes (seeds from ``agents.seeds.TEST_SEED``) with
    ids' scripted baseline on the same N episodes (the same scenario draws: the v3 HingeProbe
    ids, whose physics and estimator the joint ids share, made with the joint ids' revolute
    families and layout, both 400 control steps): the paired difference of the final
-   position errors, its mean and percentile-bootstrap 95 % interval (``agents.compare``).
+   position errors, its mean and percentile-bootstrap 95 % interval (``agents.paired``).
 
 On a 6-D id a primitive is one the skill executor ran (``SkillProber``'s choices).
 """
@@ -33,8 +33,8 @@ _ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(_ROOT))
 
 import tactile_gym  # noqa: E402
-from agents.compare import paired_difference  # noqa: E402
 from agents.joint_scripted import joint_policy  # noqa: E402
+from agents.paired import paired_difference  # noqa: E402
 from agents.scripted import scripted_policy  # noqa: E402
 from agents.seeds import TEST_SEED  # noqa: E402
 from tactile_gym.envs.joint_config import JOINT_SCENARIO  # noqa: E402

@@ -259,11 +259,12 @@ def accepted_value_is_sane(field: Field, value: Any) -> bool:
         return _is_real(value) and math.isfinite(value)
     if isinstance(default, str):
         return isinstance(value, str)
-    if field.name == "families":
+    if field.name in ("families", "fixed_layouts"):
         if not isinstance(value, (str, list, tuple)):
             return False
         names = (value,) if isinstance(value, str) else tuple(value)
-        return len(names) > 0 and set(names) <= set(FAMILIES)
+        # No fixed layout is sane (every family yawed at random); no family is not.
+        return (len(names) > 0 or field.name == "fixed_layouts") and set(names) <= set(FAMILIES)
     if not isinstance(value, (list, tuple, np.ndarray)):
         return False
     values = list(value)
