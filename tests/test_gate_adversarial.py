@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import tactile_gym
-from tactile_gym.envs.joint_config import JointProbeConfig
+from tactile_gym.envs.joint_probe import JointProbeEnv
 from tactile_gym.envs.scenarios import probed_edge
 
 P95_EDGE_DEG = 5.0
@@ -368,21 +368,27 @@ def _top_edges(u):
 
 def _errors_against_both_long_edges(u, m):
     """Edge angle (deg) and distance (m) to the nearest long top edge of either link (on
-    the joint ids, to the nearest edge of either link's top face, ``_top_edges``).
+    the joint ids, to the edge of either link's top face, ``_top_edges``, that explains the
+    press best within both bounds).
 
     Both links are centred on the pin, so the long edges of the free link's face, and those
     of the fixed link beside the pin, all lie at the one distance from the axis that the fit
     assumes; a press on any of them is a valid measurement. Ends and corners are not. The
     edges are segments: the fixed link's edge line extended over the free link is no edge.
     """
-    best = (np.inf, np.inf)
-    joint = isinstance(u.config, JointProbeConfig)
+    best = (np.inf, np.inf, np.inf)
+    joint = isinstance(getattr(u, "control_env", u), JointProbeEnv)
     for start, d, length in _top_edges(u) if joint else _long_edges(u):
         t = float(np.clip((m.point - start) @ d, 0.0, length))
         distance = float(np.linalg.norm(m.point - (start + t * d)))
         angle = float(np.degrees(np.arccos(min(1.0, abs(m.edge @ d)))))
-        best = min(best, (distance, angle))
-    return best[1], best[0]
+        # The hinge ids: the nearest long edge. The joint ids judge against every edge of
+        # both faces, and where two lie within a few mm (the scissors' links crossing at the
+        # pin, a short end beside a long edge) the nearest need not be the one pressed: the
+        # edge that best explains the press within both bounds is.
+        score = max(angle / P95_EDGE_DEG, distance / P95_DISTANCE) if joint else distance
+        best = min(best, (score, distance, angle))
+    return best[2], best[1]
 
 
 def _padded(action, space) -> np.ndarray:
