@@ -61,10 +61,13 @@ POLICIES = ("random", "scripted 1/3", "scripted", "learned", "same spot", "one e
 ADVERSARIES = POLICIES[4:]
 
 
-class _Fixed:
-    """A primitive policy of fixed or drawn actions (the adversaries)."""
+class Adversary:
+    """A primitive policy of fixed or drawn actions that never turns the link: ``kind`` is
+    one of ``ADVERSARIES`` (module docstring)."""
 
     def __init__(self, env: gym.Env, kind: str) -> None:
+        if kind not in ADVERSARIES:
+            raise ValueError(f"kind must be one of {ADVERSARIES}, got {kind!r}")
         self.kind = kind
         self.rng = np.random.default_rng(0)
 
@@ -120,7 +123,7 @@ def play(env_id: str, policy: str, seeds: list[int]) -> Outcomes:
     elif policy == "random":
         agent = make_policy("random", env)
     else:
-        agent = _Fixed(env, policy)
+        agent = Adversary(env, policy)
     rows = []
     for seed in seeds:
         obs, info = env.reset(seed=seed)

@@ -15,6 +15,7 @@ its largest-magnitude component positive).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -33,6 +34,7 @@ from tactile_gym.estimation.general import (
     fit_general,
     invariants,
     refine_general,
+    refine_start,
     sign_norms,
     total_cost,
     whiten,
@@ -276,6 +278,19 @@ def _update_state(x, e, noise: Noise, loss, state: Solution, prior=None, refuse_
     return est, _solution_of(prob, mask, edges)
 
 
+def _refine_axis(x, e, noise: Noise, loss, prior, u, p):
+    """(estimate, :class:`Solution`) of the general model refined from the axis (u, p)
+    (world frame), its invariants taken from the measurements; None if degenerate."""
+    prob = Problem(x, e, np.ones(x.shape[0]), noise, loss, None, prior)
+    pc = p - prob.centre
+    pc = pc - (pc @ u) * u
+    est, (u, pc, k, c) = refine_start(prob, u, pc, *invariants(prob.x, prob.e, u, pc))
+    if est.degenerate:
+        return None
+    prob.solution = (u, pc, k, c)
+    return est, _solution_of(prob, np.ones(x.shape[0], dtype=bool), prob.e)
+
+
 def _total_cost(x, e, noise: Noise, loss, state: Solution, prior=None) -> float:
     """:func:`~tactile_gym.estimation.general.total_cost` of all the measurements at the
     axis of ``state``."""
@@ -352,6 +367,86 @@ class Fit3D(AxisFit):
             ):
                 est, self._state = warm
         return est
+
+    def fit_lines(
+        self, lines: Measurements, parallel_lines: Callable[[], Measurements] | None = None
+    ) -> AxisEstimate:
+        """The calibrated estimator's fit (docs/design.md 6.9) of one line per link angle.
+
+        The general model is refined from each of its starts (the closed form, the prior's
+        axis, and the last call's solution, whose lines have since changed) and the one of
+        least :func:`~tactile_gym.estimation.general.total_cost` is kept. The parallel
+        model (eq. 9-10) is fitted to ``parallel_lines()`` (the presses grouped by their
+        lines alone: at every link angle its edges have one direction) when their edges lie
+        along one direction, as in :func:`fit_axis_3d`, and chosen as there
+        (:func:`~tactile_gym.estimation.selection.prefer_parallel`), unless the prior rules
+        its axis out (its direction beyond the prior's 5-sigma gate) while the general
+        model's it does not: the presses of one link angle are parallel lines that the
+        parallel model explains exactly, and a model that the prior rules out is not chosen
+        on the strength of measurements the other leaves unexplained.
+
+        With a prior, data that do not identify the axis leave the estimate at the prior's,
+        with its covariance (``method="prior"``): one line (one link angle) for the general
+        model, and fewer than two lines for the parallel one.
+
+        Args:
+            lines: the fused lines of the link angles (``link_angles``).
+            parallel_lines: the lines grouped for the parallel model, made on demand; None:
+                the general model only.
+        """
+        prior = self.prior
+        if prior is not None and lines.n == 0:
+            return prior.estimate()
+        x, e = lines.points.copy(), lines.edges.copy()
+        noise = Noise(lines.point_std.copy(), lines.edge_noise.copy())
+        if prior is not None and lines.n == 1:
+            # One link angle: the line's angle and distance to the axis are free, so it says
+            # nothing about the axis; the estimate stays the prior's (``method="prior"``).
+            est, sol = prior.estimate(), None
+        elif prior is None and lines.n < 3:
+            est, sol = degenerate_estimate("3d", lines.n, planar=False), None
+        else:
+            w = np.ones(lines.n)
+            est, sol = _fit_general_state(x, e, w, noise, self.loss, None, prior, True)
+        last = self._state
+        if last is not None and sol is not None:
+            warm = _refine_axis(x, e, noise, self.loss, prior, last.u, last.p)
+            if warm is not None and (
+                sol is None
+                or _total_cost(x, e, noise, self.loss, warm[1], prior)
+                < _total_cost(x, e, noise, self.loss, sol, prior)
+            ):
+                est, sol = warm
+        if sol is not None:
+            self._state = sol
+        # The parallel model's axis lies along the edges of one link angle: along the
+        # general lines' largest group of parallel ones (one line when nothing turned).
+        if parallel_lines is None or self._ruled_out(
+            parallel_fraction(e, _DEFAULT_PARALLEL_TOL)[0]
+        ):
+            return est
+        par = parallel_lines()
+        noise = Noise(par.point_std.copy(), par.edge_noise.copy())
+        tol = max(_DEFAULT_PARALLEL_TOL, 4.0 * float(np.median(noise.worst_edge_std())))
+        mean_dir, frac = parallel_fraction(par.edges, tol)
+        if (prior is not None and par.n < 2) or frac < 2.0 / 3.0 or self._ruled_out(mean_dir):
+            return est
+        w = np.ones(par.n)
+        prob = Problem(par.points.copy(), par.edges.copy(), w, noise, self.loss, None, prior)
+        est_par = fit_parallel(prob, mean_dir)
+        if est_par.degenerate or (
+            self._ruled_out(est_par.direction)
+            and not (est.degenerate or self._ruled_out(est.direction))
+        ):
+            return est
+        if sol is None or est.degenerate or prefer_parallel(prob, sol, est_par):
+            return est_par
+        return est
+
+    def _ruled_out(self, direction: np.ndarray) -> bool:
+        """Whether the prior (if any) rules out an axis along ``direction``: beyond its
+        5-sigma gate (``OUTLIER_GATE``, two degrees of freedom)."""
+        return self.prior is not None and self.prior.direction_z2(direction) > OUTLIER_GATE[2]
 
     def _cost(self, data: Measurements, noise: Noise, state: Solution) -> float:
         return _total_cost(data.points, data.edges, noise, self.loss, state, self.prior)

@@ -27,6 +27,7 @@ from tactile_gym.estimation.calibration import CALIBRATED, press_noise, spot_cou
 from tactile_gym.estimation.fit3d import Fit3D
 from tactile_gym.estimation.fits import PlanarFit
 from tactile_gym.estimation.interface import Measurements
+from tactile_gym.estimation.link_angles import LinkAngles, as_measurements
 from tactile_gym.estimation.prior import AxisPrior, check_prior
 from tactile_gym.estimation.robust import check_loss
 from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
@@ -134,6 +135,11 @@ class JointAxisEstimator:
         self._edge_shared = np.empty_like(self._edge_noise)
         self._point_shared = np.empty(cap)
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
+        # covariance="calibrated": the presses grouped by link angle (link_angles.py), for the
+        # general and planar models and, by their lines alone, for the parallel model.
+        planar = self.mode == "planar"
+        self._angles = LinkAngles(planar)
+        self._parallel_angles = None if planar else LinkAngles(planar, by_direction=False)
         self._cached: AxisEstimate | None = None
         self._stale = True
         if self.mode == "planar":
@@ -251,6 +257,9 @@ class JointAxisEstimator:
         if self.covariance == "calibrated":
             self._edge_shared[n] = edge_shared
             self._point_shared[n] = point_shared
+            for angles in (self._angles, self._parallel_angles):
+                if angles is not None:
+                    angles.add(self._points[n], self._edges[n], sx * sx, noise)
         self._n = n + 1
         if len(self._dirs) < 3:
             tol = math.cos(max(_DISTINCT_TOL, 3.0 * se))
@@ -271,6 +280,24 @@ class JointAxisEstimator:
             np.sqrt(np.square(data.point_std) + extra * self._point_shared[:n]),
             data.edge_noise + extra.reshape((n,) + (1,) * (shared.ndim - 1)) * shared,
         )
+
+    def _fit_link_angles(self, data: Measurements) -> AxisEstimate:
+        """The calibrated fit: of one line per link angle (``link_angles.py``), each fused
+        from its presses' noise with their spot's share counted (``data``)."""
+        if data.n == 0:
+            return self._fit.fit(data)
+        planar = self.mode == "planar"
+        lines = as_measurements(self._angles.fused(*_arrays(data)), planar)
+        if planar:
+            if self.prior is not None and lines.n < 2:
+                # One link angle says nothing about the axis (Fit3D.fit_lines).
+                return self.prior.estimate(planar=True)
+            return self._fit.fit(lines)
+
+        def parallel_lines() -> Measurements:
+            return as_measurements(self._parallel_angles.fused(*_arrays(data)), planar)
+
+        return self._fit.fit_lines(lines, parallel_lines)
 
     def _at_pin(self, est: AxisEstimate) -> AxisEstimate:
         """The estimate with its ``position_std`` taken at the axis point nearest the
@@ -315,10 +342,11 @@ class JointAxisEstimator:
             self._points[:n], self._edges[:n], self._point_std[:n], self._edge_noise[:n]
         )
         if self.covariance == "calibrated":
-            data = self._calibrated(data)
-        est = self._fit.refit(data)
-        if self.covariance == "calibrated" and prior is not None:
-            est = self._at_pin(est)
+            est = self._fit_link_angles(self._calibrated(data))
+            if prior is not None:
+                est = self._at_pin(est)
+        else:
+            est = self._fit.refit(data)
         if prior is not None:
             # Flagged if degenerate (the prior keeps the system regular; only overflowing
             # input could), never None.
@@ -328,3 +356,9 @@ class JointAxisEstimator:
         if self.mode == "3d" and len(self._dirs) < 3 and est.method != "3d-parallel":
             return None
         return est
+
+
+def _arrays(data: Measurements) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A fit's measurements as :meth:`LinkAngles.fused` takes them: points, edges, point
+    variances, edge noise."""
+    return data.points, data.edges, np.square(data.point_std), data.edge_noise
