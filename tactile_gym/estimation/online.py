@@ -74,8 +74,13 @@ class JointAxisEstimator:
     out, and each spot's bias counted once per press at that spot, so that repeated presses
     at one spot do not average it away. With a prior its ``position_std`` is taken at the
     axis point nearest the prior's pin, where the task measures the position error
-    (docs/design.md 6.7). Its 3D fit keeps the best of several refined starts (``Fit3D``'s
-    ``multi_start``), so that a local minimum does not make a confident wrong estimate.
+    (docs/design.md 6.7). Its fits take one line per link angle: presses whose lines are one
+    line within their noise are grouped and fused (:mod:`~tactile_gym.estimation.link_angles`),
+    so that presses that never turned the link count as one line, which says nothing about
+    the axis: until a second link angle the estimate stays the prior's (``method="prior"``).
+    Its 3D fit keeps the best of several refined starts and the parallel model only where
+    the prior admits it (``Fit3D.fit_lines``), so that a local minimum does not make a
+    confident wrong estimate.
 
     Both modes use ``loss``; how each fit uses it and warm-starts is told by
     :class:`~tactile_gym.estimation.fits.PlanarFit` and
@@ -145,7 +150,7 @@ class JointAxisEstimator:
         if self.mode == "planar":
             self._fit = PlanarFit(self.loss, self.prior)
         else:
-            self._fit = Fit3D(self.loss, self.prior, multi_start=self.covariance == "calibrated")
+            self._fit = Fit3D(self.loss, self.prior)
 
     @property
     def n_measurements(self) -> int:
