@@ -186,3 +186,22 @@ def test_fuse_of_presses_on_one_line_is_that_line(planar: bool) -> None:
     expected = 1.0 / (float(np.sum(np.square(s - mean_s) / var)) + 3.0 / tilt)
     np.testing.assert_allclose(np.diag(line.tilt_cov), expected, rtol=1e-6)
     assert line.scale == 1.0
+
+
+@pytest.mark.parametrize("by_direction", [True, False])
+@pytest.mark.parametrize("turn_deg", [20.0, 150.0])
+def test_presses_where_the_lines_of_two_link_angles_cross_are_two_groups(
+    by_direction: bool, turn_deg: float
+) -> None:
+    """Two presses at the very point where the edge's lines at two link angles cross (at
+    ``r tan(turn / 2)`` from each line's foot on the axis): each lies on the other's line,
+    but its edge is turned far beyond a gross error (20 deg against edge stds of 2 deg),
+    so they are two link angles, for the parallel model's grouping too."""
+    turn = math.radians(turn_deg)
+    edge0 = np.array([1.0, 0.0, 0.0])
+    normal = np.array([0.0, 1.0, 0.0])
+    crossing = DISTANCE * normal + DISTANCE * math.tan(0.5 * turn) * edge0
+    angles = LinkAngles(planar=True, by_direction=by_direction)
+    for edge in (edge0, rot(VERTICAL, turn) @ edge0):
+        angles.add(crossing, edge, POINT_STD**2, EDGE_STD**2)
+    assert angles.groups == [[0], [1]]
