@@ -190,18 +190,22 @@ def test_fuse_of_presses_on_one_line_is_that_line(planar: bool) -> None:
 
 @pytest.mark.parametrize("by_direction", [True, False])
 @pytest.mark.parametrize("turn_deg", [20.0, 150.0])
-def test_presses_where_the_lines_of_two_link_angles_cross_are_two_groups(
+def test_a_press_where_a_single_press_line_crosses_another_link_angle_is_apart(
     by_direction: bool, turn_deg: float
 ) -> None:
-    """Two presses at the very point where the edge's lines at two link angles cross (at
-    ``r tan(turn / 2)`` from each line's foot on the axis): each lies on the other's line,
-    but its edge is turned far beyond a gross error (20 deg against edge stds of 2 deg),
-    so they are two link angles, for the parallel model's grouping too."""
+    """One press on the edge 20 mm past the crossing of its line with the line at another
+    link angle (``r tan(turn / 2)`` from the line's foot on the axis), and one press of that
+    other link angle at the crossing: the second lies on the first's line, but a single
+    press's line is only its edge's direction, so they are two link angles, for the
+    parallel model's grouping too. A second press at the first's place joins it."""
     turn = math.radians(turn_deg)
     edge0 = np.array([1.0, 0.0, 0.0])
-    normal = np.array([0.0, 1.0, 0.0])
-    crossing = DISTANCE * normal + DISTANCE * math.tan(0.5 * turn) * edge0
+    foot = DISTANCE * np.array([0.0, 1.0, 0.0])
+    crossing = foot + DISTANCE * math.tan(0.5 * turn) * edge0
     angles = LinkAngles(planar=True, by_direction=by_direction)
-    for edge in (edge0, rot(VERTICAL, turn) @ edge0):
-        angles.add(crossing, edge, POINT_STD**2, EDGE_STD**2)
+    angles.add(crossing + 0.02 * edge0, edge0, POINT_STD**2, EDGE_STD**2)
+    angles.add(crossing, rot(VERTICAL, turn) @ edge0, POINT_STD**2, EDGE_STD**2)
     assert angles.groups == [[0], [1]]
+    wild = rot(VERTICAL, math.radians(30.0)) @ edge0
+    angles.add(crossing + 0.02 * edge0 + [0.0, 1e-4, 0.0], wild, POINT_STD**2, EDGE_STD**2)
+    assert angles.groups == [[0, 2], [1]]

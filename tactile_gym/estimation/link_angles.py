@@ -29,16 +29,17 @@ splitting one link angle fabricates a turn. So a press joins a group when either
   axis), so one direction is one link angle, and lines of one direction at different
   places (presses across a rounded edge, or on a parallel edge) are the model's error,
   which the fused line's scatter shows; or
-* its contact point lies on the group's line up to a gross error (the 5-sigma gate), and its
-  edge is not turned from the group's beyond a gross error (the same gate): a press whose
-  edge came out wild (near the link's end) still lies on its line, and after a turn a press
-  lies on the old line only near where the two lines cross, where its edge shows the turn
-  (on the test seeds, presses 150 deg apart lay on each other's lines and were joined
-  without the second condition: 16 mm off with a 0.8 mm std).
+* its contact point lies on the group's line up to a gross error (the 5-sigma gate): after
+  a turn a press lies on the old line only near where the two lines cross, and a press whose
+  edge came out wild (near the link's end) still lies on its line. A group whose presses
+  lie at one place (one press, or one spot pressed again) has no line but its edges': a
+  press joins it by its point only at that place. Without that, single presses at link
+  angles 150 deg apart, one at the crossing of the two lines, were joined (test seed
+  1000027 of the planar v3 id: 16 mm off with a 0.8 mm std). A press of another link angle
+  at the crossing of a longer group's line is still joined: that loses a turn.
 
 For the parallel model (edges along the axis, paper eq. 9-10) every link angle has the same
-direction: its groups are by the contact point (and the gross-error bound on the edge)
-alone (``by_direction=False``).
+direction: its groups are by the contact point alone (``by_direction=False``).
 
 The tests use each press's own noise (the calibrated model's, without the part it shares
 with its spot), so that the grouping depends on the presses in their order only. The fused
@@ -272,25 +273,28 @@ class LinkAngles:
         """How far ``other`` is from being at ``line``'s link angle, in units of the gate:
         below one, one link angle (module docstring)."""
         k = line.basis.shape[1]
-        cos = float(line.direction @ other.direction)
-        tilt = (other.direction @ line.basis) / cos
-        seen = line.basis.T @ (other.basis @ other.tilt_cov @ other.basis.T) @ line.basis
-        gap = float(tilt @ np.linalg.solve(line.tilt_cov + seen, tilt))
-        on_line = []
+        scores = []
+        if self.by_direction:
+            cos = float(line.direction @ other.direction)
+            tilt = (other.direction @ line.basis) / cos
+            seen = line.basis.T @ (other.basis @ other.tilt_cov @ other.basis.T) @ line.basis
+            gap = float(tilt @ np.linalg.solve(line.tilt_cov + seen, tilt))
+            scores.append(gap / CHI2_99[k])
         for a, b in ((line, other), (other, line)):
             rel = b.point - a.point
+            if a.span[0] == a.span[1]:
+                # Presses at one place: their line is their edges' direction only, and the
+                # lines of two link angles cross; a press lies on it only at that place.
+                dist2 = float(rel @ rel) / (a.point_var + b.point_var)
+                scores.append(dist2 / OUTLIER_GATE[3])
+                continue
             # Along the line only as far as its presses reach: beyond them its tilt's error
             # would be extrapolated.
             along = min(max(float(a.direction @ rel), a.span[0]), a.span[1])
             offset = rel @ a.basis
             var = (a.point_var + b.point_var) * np.eye(k) + along * along * a.tilt_cov
-            on_line.append(float(offset @ np.linalg.solve(var, offset)) / OUTLIER_GATE[k])
-        # On the line, but not turned beyond a gross error: the lines of two link angles
-        # cross, and a press near the crossing lies on the other's line.
-        score = max(min(on_line), gap / OUTLIER_GATE[k])
-        if self.by_direction:
-            score = min(score, gap / CHI2_99[k])
-        return score
+            scores.append(float(offset @ np.linalg.solve(var, offset)) / OUTLIER_GATE[k])
+        return min(scores)
 
 
 def _tilt_covs(edge_noise: np.ndarray, basis: np.ndarray, planar: bool) -> np.ndarray:
