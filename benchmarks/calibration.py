@@ -28,7 +28,9 @@ Four commands:
 Default seeds: the selection range (``agents.seeds``) for development; ``--seeds test`` for the
 final table. ``--axes vertical|tilted`` keeps a recording's episodes of vertical or tilted true
 axes (``errors``, ``replay``). ``--step-angle`` sets the scripted policy's turn (deg);
-``--env-kwargs`` passes keywords to ``gym.make`` (a noise-free sensor: ``"sensor:
+``--policy`` plays (``record``, ``play``) one of the adversaries of ``truth_free_reward.py``
+instead of the scripted policy, with their env keywords; ``--env-kwargs`` passes keywords to
+``gym.make`` (a noise-free sensor: ``"sensor:
 {force_noise_std: 0, moment_noise_std: 0, force_drift: 0, moment_drift: 0}"``).
 
     python benchmarks/calibration.py record --cache /tmp/calib

@@ -23,7 +23,8 @@ The table gives, per policy, the mean truth-free return's error term ((U_0 - U_T
 and the true one ((E_0 - E_T) / 10 mm) over the same episodes, the mean final E and U, and
 their difference's mean with a 95 % bootstrap interval; then Kendall's tau between the order
 by mean truth-free return and the order by mean final E, and Spearman's rho between the final
-U and E of every episode pooled, and within the scripted policy's. The claims:
+U and E of every episode pooled, and within the scripted policy's. Results: docs/design.md
+6.9 ("The truth-free reward after it"). The claims:
 ``tests/test_truth_free_reward.py`` (slow) checks them on fewer episodes.
 """
 
