@@ -31,12 +31,13 @@ splitting one link angle fabricates a turn. So a press joins a group when either
   which the fused line's scatter shows; or
 * its contact point lies on the group's line up to a gross error (the 5-sigma gate): after
   a turn a press lies on the old line only near where the two lines cross, and a press whose
-  edge came out wild (near the link's end) still lies on its line. A group whose presses
-  lie at one place (one press, or one spot pressed again) has no line but its edges': a
-  press joins it by its point only at that place. Without that, single presses at link
-  angles 150 deg apart, one at the crossing of the two lines, were joined (test seed
-  1000027 of the planar v3 id: 16 mm off with a 0.8 mm std). A press of another link angle
-  at the crossing of a longer group's line is still joined: that loses a turn.
+  edge came out wild (near the link's end) still lies on its line. A group of one press
+  (or of presses at exactly one place) has no line but its edges': a press joins it by its
+  point only at that place. Without that, single presses at link angles 150 deg apart, one
+  at the crossing of the two lines, were joined (test seed 1000027 of the planar v3 id:
+  16 mm off with a 0.8 mm std). A press of another link angle at the crossing of a longer
+  group's line is still joined, and so is one at the crossing of the line of a spot
+  pressed again, whose presses spread along it by their noise only: a gap left open.
 
 For the parallel model (edges along the axis, paper eq. 9-10) every link angle has the same
 direction: its groups are by the contact point alone (``by_direction=False``).
