@@ -25,7 +25,7 @@ their difference's mean with a 95 % bootstrap interval; then Kendall's tau betwe
 by mean truth-free return and the order by mean final E, and Spearman's rho between the final
 U and E of every episode pooled, and within the scripted policy's. Results: docs/design.md
 6.9 ("The truth-free reward after it"). The claims:
-``tests/test_truth_free_reward.py`` (slow) checks them on fewer episodes.
+``tests/test_truth_free_reward.py`` checks the adversaries' claims on fewer episodes.
 """
 
 from __future__ import annotations
