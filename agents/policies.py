@@ -19,9 +19,11 @@ import gymnasium as gym
 import numpy as np
 
 from tactile_gym.envs.hinge_probe_primitive import PRIMITIVE_KEYWORDS
+from tactile_gym.envs.observation import JointTypeObs
 from tactile_gym.envs.skills import PrimitiveExecutor
 
 from .cli import DEFAULT_ENV_ID, check_env_id, make_env
+from .joint_scripted import joint_policy
 from .runs import load_model, load_statistics, model_run, read_run
 from .scripted import episode_started, scripted_policy
 
@@ -290,6 +292,8 @@ def make_policy(name: str, env: gym.Env, trust_pickle: bool = False):
     if name == "random":
         return RandomPolicy(env)
     if name == "scripted":
+        if JointTypeObs.key in env.get_wrapper_attr("codec").groups:
+            return joint_policy(env)
         return scripted_policy(env)
     if Path(name).is_file():
         if is_primitive_model_on_6d(name, env.spec.id if env.spec else ""):

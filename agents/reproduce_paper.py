@@ -105,6 +105,21 @@ from .paper_scene import (
     make_scene,
 )
 
+__all__ = [
+    "CASES",
+    "DOWN",
+    "SCHEMES",
+    "Pressed",
+    "Trial",
+    "find_edge",
+    "lift",
+    "press",
+    "read_on",
+    "reproduce",
+    "run_trial",
+    "true_joint_position",
+]
+
 #: Measurement schemes: (number of measurements, turn between them in rad).
 SCHEMES = {"paper": (4, math.radians(30.0)), "wide": (7, math.radians(20.0))}
 CASES = ("slides", "fixed")

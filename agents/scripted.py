@@ -33,6 +33,7 @@ import numpy as np
 
 from tactile_gym.envs.observation import (
     ContactObs,
+    JointTypeObs,
     LastMeasurementObs,
     ObservationCodec,
     PrimitiveObs,
@@ -40,7 +41,14 @@ from tactile_gym.envs.observation import (
 )
 from tactile_gym.envs.skills import PrimitiveExecutor, PrimitiveScales, TouchReading
 
-__all__ = ["PrimitiveProber", "ProberConfig", "SkillProber", "episode_started", "scripted_policy"]
+__all__ = [
+    "PrimitiveProber",
+    "ProberConfig",
+    "Policy",
+    "SkillProber",
+    "episode_started",
+    "scripted_policy",
+]
 
 
 @dataclass(frozen=True)
@@ -90,6 +98,19 @@ class PrimitiveProber:
         self._drags: list[float] = []  # drag before each later probe, m
         self._drag = 0.0
         self._stalls = 0
+
+    def resume(self, edges: list[np.ndarray], levers: list[float], count: int, drag: float):
+        """Carry on an episode begun by another protocol as if this one had turned the link
+        by a drag of ``drag`` (m) after measuring the edge at ``edges`` (one per link angle,
+        with the levers of the turns between them, drag over turn, m/rad), and had counted
+        ``count`` measurements: its next ``act`` takes a new measurement as its probe's
+        after that turn."""
+        self.reset()
+        self._edges = [np.asarray(e, dtype=float) for e in edges]
+        self._drags = list(levers)
+        self._count = int(count)
+        self._drag = float(drag)
+        self._last = "probe"
 
     def act(self, obs: dict) -> np.ndarray:
         """The next primitive action (3,) for a dict observation of a v1 env."""
@@ -155,11 +176,18 @@ class SkillProber:
     Args:
         executor: runs the primitives (the 6-D env's scales, dwell and budget).
         config: protocol parameters.
+        chooser: what chooses the primitives (``act(obs)`` and ``reset()``) in place of a
+            ``PrimitiveProber`` (the joint ids': ``agents.joint_scripted.JointProber``).
     """
 
-    def __init__(self, executor: PrimitiveExecutor, config: ProberConfig = ProberConfig()) -> None:  # noqa: B008
+    def __init__(
+        self,
+        executor: PrimitiveExecutor,
+        config: ProberConfig = ProberConfig(),  # noqa: B008 - frozen dataclass
+        chooser=None,
+    ) -> None:
         self.executor = executor
-        self.chooser = PrimitiveProber(executor.scales, config)
+        self.chooser = PrimitiveProber(executor.scales, config) if chooser is None else chooser
         self.reset()
 
     def reset(self) -> None:
@@ -187,7 +215,7 @@ def episode_started(obs: dict) -> bool:
     return PrimitiveObs.key not in obs or PrimitiveObs.read(obs).kind == 0.0
 
 
-class _Policy:
+class Policy:
     """A prober with the ``get_action``/``reset`` interface of the other policies, taking dict
     or flat observations (``observation_mode="flat"`` is read with the env's codec), that
     starts over at each episode's first observation (:func:`episode_started`)."""
@@ -209,9 +237,18 @@ class _Policy:
 
 
 def scripted_policy(env, config: ProberConfig = ProberConfig()):  # noqa: B008
-    """The scripted baseline of any id (either action mode, v1 or v2); pass ``gym.make(...)``
-    (and, to vary the protocol, its ``config``)."""
+    """The scripted baseline of any hinge id (either action mode, v1 or v2); pass
+    ``gym.make(...)`` (and, to vary the protocol, its ``config``). The joint ids' is
+    ``agents.joint_scripted.joint_policy`` (``agents.policies.make_policy`` picks either).
+
+    Raises:
+        ValueError: a joint id's env.
+    """
     codec = env.get_wrapper_attr("codec")
+    if JointTypeObs.key in codec.groups:
+        raise ValueError(
+            "the joint ids' scripted baseline is agents.joint_scripted.joint_policy(env)"
+        )
     if env.action_space.shape == (3,):
-        return _Policy(PrimitiveProber(env.get_wrapper_attr("scales"), config), codec, True)
-    return _Policy(SkillProber(PrimitiveExecutor.for_env(env.unwrapped), config), codec, False)
+        return Policy(PrimitiveProber(env.get_wrapper_attr("scales"), config), codec, True)
+    return Policy(SkillProber(PrimitiveExecutor.for_env(env.unwrapped), config), codec, False)

@@ -53,6 +53,25 @@ _TASKS = (
     ("HingeProbe3DPrimitive", _PRIMITIVE, _3D),
 )
 
+# The joint ids (issue 28): the joint type unknown, each reset drawing a family of any joint;
+# born on the v3 ids' keywords, _V3 (docs/design.md 7.12).
+_JOINT_PLANAR = {"families": ("scissors", "slider", "block"), "estimator": "planar"}
+_JOINT_3D = {"families": ("door", "tilted", "drawer", "tilted_drawer", "block"), "estimator": "3d"}
+_JOINT_SIX_D = (
+    "tactile_gym.envs.joint_probe:JointProbeEnv",
+    "tactile_gym.envs.joint_probe:make_vector_env",
+)
+_JOINT_PRIMITIVE = (
+    "tactile_gym.envs.joint_probe_primitive:make_primitive_env",
+    "tactile_gym.envs.joint_probe_primitive:make_primitive_vector_env",
+)
+_JOINT_TASKS = (
+    ("JointProbe", _JOINT_SIX_D, _JOINT_PLANAR),
+    ("JointProbe3D", _JOINT_SIX_D, _JOINT_3D),
+    ("JointProbePrimitive", _JOINT_PRIMITIVE, _JOINT_PLANAR),
+    ("JointProbe3DPrimitive", _JOINT_PRIMITIVE, _JOINT_3D),
+)
+
 #: The current environment ids (v3): two tasks (the paper's planar scissors; scissors, doors
 #: and tilted axes with a 3D estimator), each with two action modes on the same physics (6-D
 #: fingertip motions and a tare, or probing primitives that run the former underneath).
@@ -63,12 +82,18 @@ ENV_IDS: tuple[str, ...] = tuple(f"tactile_gym/{name}-v3" for name, _, _ in _TAS
 LEGACY_ENV_IDS: tuple[str, ...] = tuple(
     f"tactile_gym/{name}-{version}" for version, _ in _VERSIONS[1:] for name, _, _ in _TASKS
 )
-#: The ids (every version) whose step is one probing primitive, many control steps long.
+#: The joint ids: which joint is it (rigid, revolute or prismatic), and its parameters;
+#: planar and 3D, each with both action modes, on the v3 ids' physics and estimator.
+JOINT_ENV_IDS: tuple[str, ...] = tuple(f"tactile_gym/{name}-v0" for name, _, _ in _JOINT_TASKS)
+#: The ids (every version, and the joint ids) whose step is one probing primitive, many
+#: control steps long.
 PRIMITIVE_ENV_IDS: tuple[str, ...] = tuple(
     f"tactile_gym/{name}-{version}"
     for version, _ in _VERSIONS
     for name, entries, _ in _TASKS
     if entries is _PRIMITIVE
+) + tuple(
+    f"tactile_gym/{name}-v0" for name, entries, _ in _JOINT_TASKS if entries is _JOINT_PRIMITIVE
 )
 
 try:
@@ -84,4 +109,12 @@ for _version, _extra in _VERSIONS if register else ():
             kwargs={**_kwargs, **_extra},
         )
 
-__all__ = ["ENV_IDS", "LEGACY_ENV_IDS", "PRIMITIVE_ENV_IDS", "__version__"]
+for _name, (_entry, _vector_entry), _kwargs in _JOINT_TASKS if register else ():
+    register(
+        id=f"tactile_gym/{_name}-v0",
+        entry_point=_entry,
+        vector_entry_point=_vector_entry,
+        kwargs={**_kwargs, **_V3},
+    )
+
+__all__ = ["ENV_IDS", "JOINT_ENV_IDS", "LEGACY_ENV_IDS", "PRIMITIVE_ENV_IDS", "__version__"]

@@ -23,6 +23,7 @@ from agents import (
     convert_models,
     evaluate,
     policies,
+    reproduce_drawer,
     reproduce_paper,
     runs,
     selection,
@@ -98,6 +99,7 @@ def test_keys_that_train_sets_itself_are_refused(capsys):
         (reproduce_paper.main, ["--variants", "mu_0.4"], ["--variants", "'mu_0.4'", "mu_0.3"]),
         (reproduce_paper.main, ["--schemes", "paper,narrow"], ["--schemes", "'paper,narrow'"]),
         (reproduce_paper.main, ["--trials", "0"], ["--trials 0"]),
+        (reproduce_drawer.main, ["--seeds", "0"], ["--seeds 0"]),
     ],
 )
 def test_unknown_ids_files_and_values(capsys, main, argv, expected):

@@ -259,11 +259,12 @@ def accepted_value_is_sane(field: Field, value: Any) -> bool:
         return _is_real(value) and math.isfinite(value)
     if isinstance(default, str):
         return isinstance(value, str)
-    if field.name == "families":
+    if field.name in ("families", "fixed_layouts"):
         if not isinstance(value, (str, list, tuple)):
             return False
         names = (value,) if isinstance(value, str) else tuple(value)
-        return len(names) > 0 and set(names) <= set(FAMILIES)
+        # No fixed layout is sane (every family yawed at random); no family is not.
+        return (len(names) > 0 or field.name == "fixed_layouts") and set(names) <= set(FAMILIES)
     if not isinstance(value, (list, tuple, np.ndarray)):
         return False
     values = list(value)
@@ -397,6 +398,8 @@ def test_every_field_refuses_wrong_types_and_absurd_sizes(env_id):
             bad = [1, None, default.upper() + "?"]
         elif field.name == "families":
             bad = [(), ("sphere",), [1]]
+        elif field.name == "fixed_layouts":  # a list of families, empty allowed
+            bad = [("sphere",), [1], "sphere"]
         else:
             huge = (1e12,) * len(default)
             bad = [default[:-1], (*default, default[0]), (math.nan,) * len(default), huge]
@@ -579,6 +582,9 @@ NOT_THE_FIELD = {
     ("edge_from_trace", "point_std"),
     # How often a failed training run is retried, not the prober's failed probes.
     ("run_sweep", "retries"),
+    # The joint ids' primitives reach further (JOINT_SCALES): to the face's other edges.
+    ("JointProbePrimitiveEnv.__init__", "probe_across"),
+    ("JointProbePrimitiveEnv.__init__", "probe_along"),
 }
 
 

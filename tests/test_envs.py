@@ -12,14 +12,15 @@ from gymnasium.envs.registration import load_env_creator
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import tactile_gym
-from tactile_gym import ENV_IDS
+from tactile_gym import ENV_IDS, JOINT_ENV_IDS
 from tactile_gym.envs.hinge_probe import HingeProbeEnv
 from tactile_gym.envs.hinge_probe_primitive import HingeProbePrimitiveEnv
-from tactile_gym.envs.observation import OBSERVATION_LAYOUT
 from tactile_gym.envs.skills import PRIMITIVE_KIND
 from tactile_gym.envs.task import REWARD_TERMS
 
 N_STEPS = 15
+#: The ids every conformance test runs on: the HingeProbe ids and the joint ids.
+ALL_IDS = ENV_IDS + JOINT_ENV_IDS
 
 
 def _rollout(env: gym.Env, seed: int, n_steps: int = N_STEPS):
@@ -42,7 +43,7 @@ def _flat(obs) -> np.ndarray:
     return np.ravel(obs)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_gymnasium_check_env(env_id, monkeypatch):
     # Gymnasium's default check renders every declared mode. Without a display the env does
     # not declare "human" (it would open PyBullet's GUI and kill the process), so the check
@@ -61,7 +62,7 @@ def test_gymnasium_check_env(env_id, monkeypatch):
     env.close()
 
 
-@pytest.mark.parametrize("env_id", [i for i in ENV_IDS if "Primitive" in i])
+@pytest.mark.parametrize("env_id", [i for i in ALL_IDS if "Primitive" in i])
 def test_primitive_ids_are_an_env_driving_the_6d_env(env_id):
     env = gym.make(env_id, max_primitives=3, probe_along=0.005)
     primitive = env.unwrapped
@@ -97,7 +98,7 @@ def test_human_render_without_a_display_is_a_clear_error(monkeypatch):
         gym.make(ENV_IDS[0], render_mode="human")
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_sb3_check_env(env_id):
     sb3_env_checker = pytest.importorskip("stable_baselines3.common.env_checker")
     env = gym.make(env_id)
@@ -105,7 +106,7 @@ def test_sb3_check_env(env_id):
     env.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_same_seed_same_rollout(env_id):
     env_a, env_b = gym.make(env_id), gym.make(env_id)
     traj_a, rew_a = _rollout(env_a, seed=7)
@@ -122,7 +123,7 @@ def test_same_seed_same_rollout(env_id):
     env_b.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_consecutive_resets_differ(env_id):
     env = gym.make(env_id)
     obs_a, info_a = env.reset(seed=1)
@@ -132,7 +133,7 @@ def test_consecutive_resets_differ(env_id):
     env.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_observations_in_space_and_float32(env_id):
     env = gym.make(env_id)
     traj, _ = _rollout(env, seed=3)
@@ -143,24 +144,22 @@ def test_observations_in_space_and_float32(env_id):
     env.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_flat_observation_variant(env_id):
     env = gym.make(env_id, observation_mode="flat")
     assert isinstance(env.observation_space, gym.spaces.Box)
     obs, _ = env.reset(seed=0)
     dict_obs, _ = gym.make(env_id).reset(seed=0)
-    extra = 3 if "primitive" in dict_obs else 0  # the primitive ids' last-primitive summary
-    assert obs.shape == (sum(n for _, n in OBSERVATION_LAYOUT) + extra,)
+    layout = env.get_wrapper_attr("codec").layout  # the primitive ids' with their summary
+    assert obs.shape == (sum(n for _, n in layout),)
     assert env.observation_space.contains(obs)
     space = env.get_wrapper_attr("dict_observation_space")
     np.testing.assert_array_equal(obs, gym.spaces.flatten(space, dict_obs))
-    if not extra:
-        layout = np.concatenate([dict_obs[k] for k, _ in OBSERVATION_LAYOUT])
-        np.testing.assert_array_equal(obs, layout)
+    np.testing.assert_array_equal(obs, np.concatenate([dict_obs[k] for k, _ in layout]))
     env.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_close_twice_and_pickle(env_id):
     env = gym.make(env_id)
     env.reset(seed=0)
@@ -182,7 +181,7 @@ def test_vector_envs(mode):
     envs.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_reward_is_sum_of_terms(env_id):
     env = gym.make(env_id)
     env.reset(seed=2)
@@ -197,7 +196,7 @@ def test_reward_is_sum_of_terms(env_id):
     env.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 @pytest.mark.parametrize("bad", ["short", "matrix", "nan", "inf"])
 def test_bad_actions_raise(env_id, bad):
     env = gym.make(env_id)
@@ -214,7 +213,7 @@ def test_bad_actions_raise(env_id, bad):
     env.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ALL_IDS)
 def test_stepping_after_the_episode_ended_raises(env_id):
     env = gym.make(env_id, max_steps=2)
     env.reset(seed=0)
@@ -257,8 +256,9 @@ def test_bad_keywords_raise(kwargs, match):
 
 
 def test_env_ids_registered():
-    assert len(set(tactile_gym.ENV_IDS)) == 4
-    for env_id in tactile_gym.ENV_IDS:
+    assert len(set(tactile_gym.ENV_IDS)) == len(set(tactile_gym.JOINT_ENV_IDS)) == 4
+    assert {i for i in JOINT_ENV_IDS if "Primitive" in i} <= set(tactile_gym.PRIMITIVE_ENV_IDS)
+    for env_id in ALL_IDS:
         # The env truncates by itself (its observation says how much time is left).
         assert gym.spec(env_id).max_episode_steps is None
     with pytest.raises(gym.error.Error):

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 import tactile_gym
+from tactile_gym.envs.joint_probe import JointProbeEnv
 from tactile_gym.envs.scenarios import probed_edge
 
 P95_EDGE_DEG = 5.0
@@ -348,21 +349,46 @@ def _long_edges(u):
     return segments
 
 
+def _top_edges(u):
+    """Every edge of both links' faces that look up, as segments (start, unit direction,
+    length), world: on the joint ids each line of the link is a valid measurement (the
+    pipeline labels it, docs/design.md 7.12); ends are edges, corners are not."""
+    segments = []
+    for box in (u.scene.object.free_box, u.scene.object.fixed_box):
+        r, c, h = box.rotation, box.center, box.half_extents
+        up = int(np.argmax(np.abs(r[2])))  # the box axis nearest world z
+        top = c + np.sign(r[2, up]) * h[up] * r[:, up]
+        a, b = [i for i in range(3) if i != up]
+        for along, across in ((a, b), (b, a)):
+            for sign in (1.0, -1.0):
+                start = top + sign * h[across] * r[:, across] - h[along] * r[:, along]
+                segments.append((start, r[:, along], 2.0 * h[along]))
+    return segments
+
+
 def _errors_against_both_long_edges(u, m):
-    """Edge angle (deg) and distance (m) to the nearest long top edge of either link.
+    """Edge angle (deg) and distance (m) to the nearest long top edge of either link (on
+    the joint ids, to the edge of either link's top face, ``_top_edges``, that explains the
+    press best within both bounds).
 
     Both links are centred on the pin, so the long edges of the free link's face, and those
     of the fixed link beside the pin, all lie at the one distance from the axis that the fit
     assumes; a press on any of them is a valid measurement. Ends and corners are not. The
     edges are segments: the fixed link's edge line extended over the free link is no edge.
     """
-    best = (np.inf, np.inf)
-    for start, d, length in _long_edges(u):
+    best = (np.inf, np.inf, np.inf)
+    joint = isinstance(getattr(u, "control_env", u), JointProbeEnv)
+    for start, d, length in _top_edges(u) if joint else _long_edges(u):
         t = float(np.clip((m.point - start) @ d, 0.0, length))
         distance = float(np.linalg.norm(m.point - (start + t * d)))
         angle = float(np.degrees(np.arccos(min(1.0, abs(m.edge @ d)))))
-        best = min(best, (distance, angle))
-    return best[1], best[0]
+        # The hinge ids: the nearest long edge. The joint ids judge against every edge of
+        # both faces, and where two lie within a few mm (the scissors' links crossing at the
+        # pin, a short end beside a long edge) the nearest need not be the one pressed: the
+        # edge that best explains the press within both bounds is.
+        score = max(angle / P95_EDGE_DEG, distance / P95_DISTANCE) if joint else distance
+        best = min(best, (score, distance, angle))
+    return best[2], best[1]
 
 
 def _padded(action, space) -> np.ndarray:
@@ -453,7 +479,12 @@ def test_gate_survives_a_short_attack():
     _check(angles, distances, at_least=3)
 
 
-SIX_D = [e for e in tactile_gym.ENV_IDS if "Primitive" not in e]
+SIX_D = [e for e in tactile_gym.ENV_IDS + tactile_gym.JOINT_ENV_IDS if "Primitive" not in e]
+
+
+def test_gate_survives_a_short_attack_on_a_joint_id():
+    angles, distances = attack("tactile_gym/JointProbe-v0", episodes=12, steps=120)
+    _check(angles, distances, at_least=3)
 
 
 def test_gate_refuses_a_short_hold_still_attack():
@@ -489,7 +520,9 @@ def test_gate_survives_the_full_attack(env_id):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("env_id", [e for e in tactile_gym.ENV_IDS if "Primitive" in e])
+@pytest.mark.parametrize(
+    "env_id", [e for e in tactile_gym.ENV_IDS + tactile_gym.JOINT_ENV_IDS if "Primitive" in e]
+)
 def test_gate_survives_random_primitives(env_id):
     angles, distances = attack_primitives(env_id, episodes=50, seed=100)
     _check(angles, distances, at_least=20)

@@ -26,11 +26,12 @@ import numpy as np
 import pytest
 
 import tactile_gym
-from agents.scripted import scripted_policy
+from agents.policies import make_policy
 from tactile_gym.sim import ProbeScene
 
 TRUTH = (
     "true_axis",
+    "true_joint_type",
     "edge_line",
     "object_config",
     "true_wrench",
@@ -39,7 +40,7 @@ TRUTH = (
     "joint_angle",
     "object",
 )
-ALLOWED_NAME = re.compile(r"^(_?true_\w*|\w*_error|turn_by_hand)$")
+ALLOWED_NAME = re.compile(r"^(_?true_\w*|\w*_error|\w+_by_hand)$")
 ROOT = Path(tactile_gym.__file__).resolve().parents[1]
 FORBIDDEN = (
     "tactile_gym/sensing/",
@@ -49,6 +50,7 @@ FORBIDDEN = (
     "tactile_gym/envs/observation.py",
     "tactile_gym/envs/skills.py",
     "agents/scripted.py",
+    "agents/joint_scripted.py",
 )
 SCENE_FILE = "tactile_gym/sim/scene.py"
 
@@ -105,12 +107,12 @@ class _Random:
         return self.space.sample()
 
 
-@pytest.mark.parametrize("env_id", tactile_gym.ENV_IDS)
+@pytest.mark.parametrize("env_id", tactile_gym.ENV_IDS + tactile_gym.JOINT_ENV_IDS)
 @pytest.mark.parametrize("policy", ["scripted", "random"])
 def test_episodes_never_feed_truth_to_the_measurement_path(audit, env_id, policy):
     violations, reads = audit
     env = gym.make(env_id, max_steps=80)
-    agent = scripted_policy(env) if policy == "scripted" else _Random(env)
+    agent = make_policy("scripted", env) if policy == "scripted" else _Random(env)
     obs, _ = env.reset(seed=3)
     agent.reset()
     done = False
@@ -169,3 +171,15 @@ def test_table1_reads_truth_only_by_hand_and_for_the_error(audit):
     assert len(results) == 2
     assert not violations, violations[:5]
     assert any("turn_by_hand" in r for r in reads)
+
+
+def test_drawer_table_reads_truth_only_by_hand_and_for_the_error(audit):
+    """The drawer's protocol likewise: only the hand that carries the finger with the
+    drawer (``carried_by_hand``) and the error may read the truth."""
+    from agents import reproduce_drawer
+
+    violations, reads = audit
+    results = reproduce_drawer.reproduce(trials=1)
+    assert len(results) == 2
+    assert not violations, violations[:5]
+    assert any("carried_by_hand" in r for r in reads)

@@ -22,7 +22,7 @@ from gymnasium.utils.env_checker import data_equivalence
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.wrappers.vector import FlattenObservation, RecordEpisodeStatistics
 
-from tactile_gym import ENV_IDS
+from tactile_gym import ENV_IDS, JOINT_ENV_IDS
 from tactile_gym.envs.vector import MAX_NUM_ENVS, HingeProbeVectorEnv
 
 #: Short episodes, so that a few steps cross an autoreset.
@@ -43,7 +43,7 @@ def _row(obs, i: int):
     return {k: v[i] for k, v in obs.items()} if isinstance(obs, dict) else obs[i]
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", ENV_IDS + JOINT_ENV_IDS)
 def test_make_vec_gives_the_vector_env_with_gymnasium_conventions(env_id):
     envs = _make_vec(env_id, 2)
     assert isinstance(envs, HingeProbeVectorEnv) and isinstance(envs, VectorEnv)
@@ -91,7 +91,9 @@ def _worker_processes() -> list[multiprocessing.Process]:
 
 
 @pytest.mark.parametrize(
-    "env_id, workers", [(i, 1) for i in ENV_IDS] + [(ENV_IDS[0], 2), (ENV_IDS[2], 2)]
+    "env_id, workers",
+    [(i, 1) for i in ENV_IDS + JOINT_ENV_IDS]
+    + [(ENV_IDS[0], 2), (ENV_IDS[2], 2), (JOINT_ENV_IDS[3], 2)],
 )
 def test_sub_env_i_is_gym_make_with_its_seed_across_autoresets(env_id, workers):
     kwargs = SHORT[_primitive(env_id)]
@@ -130,7 +132,7 @@ def test_sub_env_i_is_gym_make_with_its_seed_across_autoresets(env_id, workers):
         env.close()
 
 
-@pytest.mark.parametrize("env_id", [ENV_IDS[0], ENV_IDS[2]])
+@pytest.mark.parametrize("env_id", [ENV_IDS[0], ENV_IDS[2], JOINT_ENV_IDS[0], JOINT_ENV_IDS[2]])
 def test_the_vector_env_matches_gymnasiums_sync_vector_env(env_id):
     kwargs = SHORT[_primitive(env_id)]
     ours = _make_vec(env_id, 2, **kwargs)

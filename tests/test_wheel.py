@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+import tactile_gym
+
 ROOT = Path(__file__).resolve().parents[1]
 TORCH = "torch==2.13.0"  # the CPU build; stable-baselines3 would otherwise pull CUDA's
 
@@ -111,7 +113,7 @@ for kind in KINDS:
 assert "default" in load_preset("train", "ppo")
 for family in FAMILIES:
     ObjectConfig.family_default(family)
-for env_id in tactile_gym.ENV_IDS:
+for env_id in tactile_gym.ENV_IDS + tactile_gym.JOINT_ENV_IDS:
     env = gym.make(env_id)
     obs, _ = env.reset(seed=0)
     for _ in range(3):
@@ -125,7 +127,7 @@ for env_id in tactile_gym.ENV_IDS:
 def test_envs_agents_and_presets_from_outside(installed):
     python, outside, _ = installed
     result = _run([python, "-c", CHECK], outside)
-    assert result.stdout.count(" ok") == 4
+    assert result.stdout.count(" ok") == len(tactile_gym.ENV_IDS) + len(tactile_gym.JOINT_ENV_IDS)
 
 
 def test_ppo_trains_a_few_steps(installed):

@@ -43,6 +43,7 @@ class EnvFamily:
     title: str
     cls: str  # "module:Class"
     primitive: bool  # its ids are those in tactile_gym.PRIMITIVE_ENV_IDS, or the others
+    joint: bool = False  # its ids are tactile_gym.JOINT_ENV_IDS, or the HingeProbe ones
 
 
 ENV_FAMILIES = (
@@ -51,6 +52,16 @@ ENV_FAMILIES = (
         "hinge_probe_primitive",
         "HingeProbePrimitive",
         "tactile_gym.envs.hinge_probe_primitive:HingeProbePrimitiveEnv",
+        True,
+    ),
+    EnvFamily(
+        "joint_probe", "JointProbe", "tactile_gym.envs.joint_probe:JointProbeEnv", False, True
+    ),
+    EnvFamily(
+        "joint_probe_primitive",
+        "JointProbePrimitive",
+        "tactile_gym.envs.joint_probe_primitive:JointProbePrimitiveEnv",
+        True,
         True,
     ),
 )
@@ -192,7 +203,12 @@ def env_page(family: EnvFamily, documented: set[str]) -> str:
 
     cls = _load(family.cls)
     rows = []
-    for env_id in (*tactile_gym.ENV_IDS, *tactile_gym.LEGACY_ENV_IDS):
+    ids = (
+        tactile_gym.JOINT_ENV_IDS
+        if family.joint
+        else (*tactile_gym.ENV_IDS, *tactile_gym.LEGACY_ENV_IDS)
+    )
+    for env_id in ids:
         if (env_id in tactile_gym.PRIMITIVE_ENV_IDS) != family.primitive:
             continue
         kwargs = gym.spec(env_id).kwargs
@@ -222,8 +238,13 @@ def env_page(family: EnvFamily, documented: set[str]) -> str:
             "|---|---|---|---|---|",
             *rows,
             "",
-            "The v2 ids are the current ones; the v1 ids stay registered unchanged (Version"
-            " History below). Every id is made by `gym.make(id)` after `import tactile_gym`."
+            (
+                "Each reset draws one of the id's families, so the joint type is unknown."
+                if family.joint
+                else "The v3 ids are the current ones; the v2 and v1 ids stay registered"
+                " unchanged (Version History below)."
+            )
+            + " Every id is made by `gym.make(id)` after `import tactile_gym`."
             f" This page is the docstring of {{py:class}}`~{full_name}`.",
             "",
             docstring_to_myst(body, linkable, anchors),

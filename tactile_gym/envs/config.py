@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -29,6 +29,7 @@ from tactile_gym.perception import GateConfig, MeasurementPipeline, StreamLimits
 from tactile_gym.perception.log import LogHeader
 from tactile_gym.sensing import SENSOR_MODELS, FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, SkinConfig
+from tactile_gym.sim.config import family_joint_type
 from tactile_gym.sim.scene import FORCE_LIMIT, PHYSICS
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
 from tactile_gym.validation import (
@@ -40,7 +41,11 @@ from tactile_gym.validation import (
     check_number,
 )
 
-__all__ = ["HingeProbeConfig"]
+__all__ = ["PLANAR_FAMILIES", "HingeProbeConfig"]
+
+#: The families whose joint the planar estimator takes: lying on the table, a vertical axis
+#: or a slide along the table (or no joint).
+PLANAR_FAMILIES = ("scissors", "slider", "block")
 
 
 @dataclass(frozen=True)
@@ -54,7 +59,8 @@ class HingeProbeConfig:
     and ``ScenarioConfig``. Each holds only what differs from those classes' defaults.
 
     Attributes:
-        families: object families drawn at reset, from ``scissors, door, lid, tilted``.
+        families: object families drawn at reset, from ``scissors, door, lid, tilted`` (the
+            families whose joint type is in ``JOINT_TYPES``).
         estimator: ``"planar"`` (axis along world z, paper eq. 16-21) or ``"3d"``.
         estimator_loss: robust loss of the estimator (``tactile_gym.estimation.LOSSES``).
         estimator_covariance: what the estimator takes each measurement's handed noise for
@@ -82,6 +88,9 @@ class HingeProbeConfig:
         skin, sensor, object, gate, task, scenario: nested overrides (above).
     """
 
+    #: The joint types of the families this env takes (``tactile_gym.sim.JOINT_TYPES``).
+    JOINT_TYPES: ClassVar[tuple[str, ...]] = ("revolute",)
+
     families: tuple[str, ...] = ("scissors",)
     estimator: str = "planar"
     estimator_loss: str = "soft_l1"
@@ -108,17 +117,24 @@ class HingeProbeConfig:
         families = (self.families,) if isinstance(self.families, str) else self.families
         if not isinstance(families, (tuple, list)) or not families:
             raise ValueError(f"families must be a non-empty list from {FAMILIES}, got {families!r}")
+        fit = tuple(f for f in FAMILIES if family_joint_type(f) in self.JOINT_TYPES)
         for family in families:
-            check_choice("families[...]", family, FAMILIES)
+            if family in FAMILIES and family not in fit:
+                raise ValueError(
+                    f"families: {family!r} has a {family_joint_type(family)} joint, and this"
+                    f" env takes {' or '.join(self.JOINT_TYPES)} joints only: one of {fit}"
+                )
+            check_choice("families[...]", family, fit)
         object.__setattr__(self, "families", tuple(families))
         check_choice("estimator", self.estimator, ("planar", "3d"))
         check_choice("estimator_loss", self.estimator_loss, LOSSES)
         check_choice("estimator_covariance", self.estimator_covariance, COVARIANCES)
         check_choice("observation_mode", self.observation_mode, ("dict", "flat"))
-        if self.estimator == "planar" and set(self.families) - {"scissors"}:
+        if self.estimator == "planar" and set(self.families) - set(PLANAR_FAMILIES):
             raise ValueError(
-                "estimator='planar' assumes a vertical axis, which only the 'scissors' family"
-                f" has; got families {self.families}. Use estimator='3d'."
+                "estimator='planar' assumes a vertical axis or a slide along the table, which"
+                f" only the families {PLANAR_FAMILIES} have; got families {self.families}."
+                " Use estimator='3d'."
             )
         check_int("max_steps", self.max_steps, 1, 100_000)
         check_number("time_step", self.time_step, 1e-4, 0.02)
@@ -246,7 +262,8 @@ class HingeProbeConfig:
     def from_kwargs(cls, kwargs: dict[str, Any]) -> HingeProbeConfig:
         """Build a config from keywords; an unknown one raises ``UnknownKeywordError`` (a
         ``TypeError`` and a ``ValueError``) naming it and the allowed ones."""
-        check_keywords("HingeProbeEnv", kwargs, [f.name for f in dataclasses.fields(cls)])
+        env = cls.__name__.replace("Config", "Env")
+        check_keywords(env, kwargs, [f.name for f in dataclasses.fields(cls)])
         return cls(
             **{
                 k: tuple(v) if k == "families" and isinstance(v, list) else v

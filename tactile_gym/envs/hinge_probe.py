@@ -13,7 +13,8 @@ task (``task.py``: reward and termination from the ground truth) and the observa
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -21,7 +22,7 @@ from gymnasium import spaces
 
 from tactile_gym.envs.config import HingeProbeConfig
 from tactile_gym.envs.controller import DeltaPoseController
-from tactile_gym.envs.observation import OBSERVATION, pipeline_parts
+from tactile_gym.envs.observation import OBSERVATION, ObservationCodec, pipeline_parts
 from tactile_gym.envs.render import RenderOptions, draw_frame
 from tactile_gym.envs.step_guard import (
     EnvSpecOwnHorizon,
@@ -223,6 +224,13 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 20}
+    #: The config, task, observation codec and the observation's arrays from the pipeline
+    #: of the ids (an env of other ids that reuses this one's machinery, ``JointProbeEnv``,
+    #: sets its own).
+    config_class: ClassVar[type[HingeProbeConfig]] = HingeProbeConfig
+    task_class: ClassVar[type[AxisEstimationTask]] = AxisEstimationTask
+    observation_codec: ClassVar[ObservationCodec] = OBSERVATION
+    observation_parts: ClassVar[Callable[..., dict]] = staticmethod(pipeline_parts)
 
     def __init__(
         self,
@@ -233,7 +241,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
         **kwargs: Any,
     ) -> None:
         check_render_mode(render_mode, self.metadata["render_modes"])
-        self.config = cfg = HingeProbeConfig.from_kwargs(kwargs)
+        self.config = cfg = self.config_class.from_kwargs(kwargs)
         self._horizon = cfg.max_steps
         self.render_mode = render_mode
         self.render_options = RenderOptions(render_width, render_height, render_truth)
@@ -245,8 +253,8 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
             cfg.max_translation, cfg.max_rotation, self.geometry.sphere_center
         )
         self.pipeline = cfg.pipeline(self.geometry)
-        self.task = AxisEstimationTask(cfg.task_config)
-        self.codec = OBSERVATION
+        self.task = self.task_class(cfg.task_config)
+        self.codec = self.observation_codec
         self.dict_observation_space = self.codec.dict_space
         self.observation_space = self.codec.space(cfg.observation_mode)
         self.action_space = spaces.Box(
@@ -371,7 +379,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
     def _observation(self):
         """The observation of the current state (reads state only, changes nothing)."""
         scene = self._scene
-        parts = pipeline_parts(
+        parts = self.observation_parts(
             self.pipeline,
             scene.fingertip_position,
             scene.fingertip_orientation,

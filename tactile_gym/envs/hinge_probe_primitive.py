@@ -9,7 +9,7 @@ the primitive env's keywords from the 6-D env's; each version drives the 6-D env
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -118,6 +118,9 @@ class HingeProbePrimitiveEnv(EnvSpecOwnHorizon, gym.Env):
     * v1: initial release.
     """
 
+    #: The executor of the primitives (an env of other ids sets its own).
+    executor_class: ClassVar[type[PrimitiveExecutor]] = PrimitiveExecutor
+
     def __init__(
         self,
         control_env: HingeProbeEnv,
@@ -139,8 +142,8 @@ class HingeProbePrimitiveEnv(EnvSpecOwnHorizon, gym.Env):
         self.max_primitives = check_int("max_primitives", max_primitives, 1, 10_000)
         self._horizon = self.max_primitives
         self.scales = PrimitiveScales(
-            probe_across=check_number("probe_across", probe_across, 0.0, 0.01, low_open=True),
-            probe_along=check_number("probe_along", probe_along, 0.0, 0.05),
+            probe_across=check_number("probe_across", probe_across, 0.0, 0.05, low_open=True),
+            probe_along=check_number("probe_along", probe_along, 0.0, 0.1),
             turn_distance=check_number("turn_distance", turn_distance, 0.0, 0.1, low_open=True),
         )
         self._mode = control_env.config.observation_mode
@@ -150,7 +153,7 @@ class HingeProbePrimitiveEnv(EnvSpecOwnHorizon, gym.Env):
         self.observation_space = self.codec.space(self._mode)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
         self._guard = StepGuard(self.action_space)
-        self._executor = PrimitiveExecutor.for_env(control_env, self.scales)
+        self._executor = self.executor_class.for_env(control_env, self.scales)
         self._frames: list[np.ndarray] = []
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):

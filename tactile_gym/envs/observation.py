@@ -24,22 +24,26 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
+from tactile_gym.estimation import FLAGS, JOINT_TYPES, OUTCOMES
 from tactile_gym.validation import check_choice
 from tactile_gym.vec3 import norm
 
 __all__ = [
+    "JOINT_OBSERVATION",
     "NO_EDGE",
     "OBSERVATION",
     "OBSERVATION_LAYOUT",
     "ContactObs",
     "EstimateObs",
     "FingertipPoseObs",
+    "JointTypeObs",
     "LastMeasurementObs",
     "ObservationCodec",
     "ObservationGroup",
     "PrimitiveObs",
     "ProgressObs",
     "WrenchObs",
+    "joint_pipeline_parts",
     "pipeline_parts",
 ]
 
@@ -243,6 +247,57 @@ class PrimitiveObs(ObservationGroup):
     duration: float = entry(1, 0.0, 1.0)
 
 
+@dataclass(frozen=True, eq=False)
+class JointTypeObs(ObservationGroup):
+    """The joint-type estimate (the joint ids, ``docs/design.md`` 7.12).
+
+    Attributes:
+        probabilities: posterior probabilities of rigid, revolute, prismatic and none
+            (``tactile_gym.estimation.OUTCOMES``).
+        flags: 1 for each of the estimate's flags that holds, in the order of
+            ``tactile_gym.estimation.FLAGS``.
+        configurations: link configurations pressed so far.
+        lines: edge lines pressed so far.
+    """
+
+    key: ClassVar[str] = "joint"
+    probabilities: np.ndarray = entry(len(OUTCOMES), 0.0, 1.0)
+    flags: np.ndarray = entry(len(FLAGS), 0.0, 1.0)
+    configurations: float = entry(1, 0.0, MAX_MEASUREMENTS)
+    lines: float = entry(1, 0.0, MAX_MEASUREMENTS)
+
+    @classmethod
+    def from_pipeline(cls, pipeline: Any) -> JointTypeObs:
+        """The entries of a ``tactile_gym.perception.JointPipeline``."""
+        estimate = pipeline.joint_estimate
+        return cls(
+            estimate.probabilities,
+            np.array([float(flag in estimate.flags) for flag in FLAGS]),
+            float(pipeline.configurations),
+            float(len(pipeline.lines)),
+        )
+
+
+def most_likely_model(pipeline: Any) -> EstimateObs:
+    """The ``estimate`` entries of the joint ids: the most probable joint type's parameters
+    (of rigid, revolute and prismatic; ties to the first). Revolute: the axis
+    (``pipeline.estimate``: the revolute model's, or the prior's before a fit); prismatic:
+    the direction of travel and its RMS angle error, the point and position std 0 (before a
+    fit the direction is 0 and its std ``NO_EDGE``); rigid: zeros."""
+    estimate = pipeline.joint_estimate
+    best = JOINT_TYPES[int(np.argmax(estimate.probabilities[: len(JOINT_TYPES)]))]
+    zeros = np.zeros(3)
+    if best == "revolute":
+        return EstimateObs.from_estimate(pipeline.estimate)
+    if best == "rigid":
+        return EstimateObs(zeros, zeros, 0.0, 0.0)
+    fit = estimate.models.get("prismatic")
+    if fit is None:
+        return EstimateObs(zeros, zeros, 0.0, NO_EDGE)
+    std = float(np.sqrt(max(float(np.trace(fit.covariance)), 0.0)))
+    return EstimateObs(zeros, fit.parameters, 0.0, min(std, np.pi))
+
+
 class ObservationCodec:
     """Encodes observation groups into an env's observation, and reads observations back.
 
@@ -317,9 +372,21 @@ def pipeline_parts(pipeline: Any, position, quaternion, time_left: float) -> dic
     return {group.key: group.to_array() for group in groups}
 
 
+def joint_pipeline_parts(pipeline: Any, position, quaternion, time_left: float) -> dict:
+    """The arrays of every key of the ``JointProbe`` observation: ``pipeline_parts`` of a
+    ``JointPipeline``, its ``estimate`` the most likely model's (``most_likely_model``), and
+    the joint-type estimate (``JointTypeObs``)."""
+    parts = pipeline_parts(pipeline, position, quaternion, time_left)
+    parts[EstimateObs.key] = most_likely_model(pipeline).to_array()
+    parts[JointTypeObs.key] = JointTypeObs.from_pipeline(pipeline).to_array()
+    return parts
+
+
 #: The codec of the ``HingeProbe`` ids (the primitive ids add ``PrimitiveObs``).
 OBSERVATION = ObservationCodec(
     (WrenchObs, FingertipPoseObs, ContactObs, EstimateObs, LastMeasurementObs, ProgressObs)
 )
 #: Keys of the flat observation in order, with their sizes (``OBSERVATION.layout``).
 OBSERVATION_LAYOUT = OBSERVATION.layout
+#: The codec of the ``JointProbe`` ids: the ``HingeProbe`` ids' and ``JointTypeObs``.
+JOINT_OBSERVATION = OBSERVATION.with_group(JointTypeObs)

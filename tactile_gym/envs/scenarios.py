@@ -1,4 +1,4 @@
-"""Reset randomisation: the object, its joint angle and the fingertip's start pose.
+"""Reset randomisation: the object, its joint coordinate and the fingertip's start pose.
 
 Frames and units: world frame (z up, table at z = 0), metres, radians. Every draw comes from the
 generator handed in (the env's ``np_random``).
@@ -27,7 +27,7 @@ from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.sim import ObjectConfig
 from tactile_gym.sim.config import FAMILIES
 from tactile_gym.spatial import matrix_to_quaternion, rotvec_to_matrix, z_to
-from tactile_gym.validation import check_number, check_range
+from tactile_gym.validation import check_choice, check_number, check_range
 
 __all__ = [
     "FAMILIES",
@@ -49,12 +49,22 @@ class ScenarioConfig:
     """Ranges of the reset randomisation (uniform draws).
 
     Attributes:
-        joint_angle_range: initial joint angle, rad (clipped to the object's joint limits).
-        size_scale_range: factor on the free link's length and width.
+        joint_angle_range: initial joint angle of a revolute joint, rad (clipped to the
+            object's joint limits).
+        travel_range: initial travel of a prismatic joint, m (clipped likewise).
+        size_scale_range: factor on the sizes of the free link's probed face (a hinged
+            link's length and width, a slide's front edge and depth).
         position_jitter: largest horizontal offset of the hinge from the family default, m.
-        yaw_range: rotation of the whole layout about world z, rad (the scissors keep the
-            paper's layout: their free link points from the hinge toward world +x).
-        tilt_range: tilt of the ``tilted`` family's axis from vertical, rad.
+        yaw_range: rotation of the whole layout about world z, rad, except for the families
+            of ``fixed_layouts``.
+        fixed_layouts: families that keep their preset's layout (the scissors: the paper's,
+            their free link pointing from the hinge toward world +x).
+        tilt_range: tilt of the ``tilted`` family's axis from vertical, and of the
+            ``tilted_drawer``'s travel from horizontal, rad.
+        face_height_range: None, or the height of the probed edge above the table at the
+            start's joint coordinate 0, m: the object is then lifted or lowered to a height
+            drawn from it, whatever its family's preset says (so that the start's height
+            does not tell the families apart).
         start_along_range: where along the free link the fingertip starts, as a fraction of
             the link's length from the hinge.
         start_across_range: signed distance of the hemisphere centre from the probed edge,
@@ -66,10 +76,13 @@ class ScenarioConfig:
     """
 
     joint_angle_range: tuple[float, float] = (-20 * _DEG, 20 * _DEG)
+    travel_range: tuple[float, float] = (-0.01, 0.01)
     size_scale_range: tuple[float, float] = (0.85, 1.15)
     position_jitter: float = 0.01
     yaw_range: tuple[float, float] = (-np.pi, np.pi)
+    fixed_layouts: tuple[str, ...] = ("scissors",)
     tilt_range: tuple[float, float] = (10 * _DEG, 30 * _DEG)
+    face_height_range: tuple[float, float] | None = None
     start_along_range: tuple[float, float] = (0.45, 0.75)
     start_across_range: tuple[float, float] = (-0.004, 0.003)
     start_height_range: tuple[float, float] = (0.002, 0.005)
@@ -77,6 +90,16 @@ class ScenarioConfig:
 
     def __post_init__(self) -> None:
         check_range("scenario.joint_angle_range", self.joint_angle_range, -np.pi, np.pi)
+        check_range("scenario.travel_range", self.travel_range, -0.2, 0.2)
+        layouts = self.fixed_layouts
+        layouts = (layouts,) if isinstance(layouts, str) else layouts
+        if not isinstance(layouts, (tuple, list)):
+            raise ValueError(f"scenario.fixed_layouts must be a list of families, got {layouts!r}")
+        for family in layouts:
+            check_choice("scenario.fixed_layouts[...]", family, FAMILIES)
+        object.__setattr__(self, "fixed_layouts", tuple(layouts))
+        if self.face_height_range is not None:
+            check_range("scenario.face_height_range", self.face_height_range, 0.0, 0.5)
         check_range("scenario.size_scale_range", self.size_scale_range, 0.5, 2.0)
         check_number("scenario.position_jitter", self.position_jitter, 0.0, 0.05)
         check_range("scenario.yaw_range", self.yaw_range, -np.pi, np.pi)
@@ -98,7 +121,8 @@ class Scenario:
 
 
 def probed_edge(config: ObjectConfig, joint_angle: float) -> tuple[np.ndarray, ...]:
-    """Geometry of the free link's probed edge at a joint angle, world frame (ground truth).
+    """Geometry of the free link's probed edge at a joint coordinate (rad, or m for a slide),
+    world frame (ground truth).
 
     Returns:
         (origin, direction, side_normal, top_normal): the point of the edge line level with
@@ -107,13 +131,16 @@ def probed_edge(config: ObjectConfig, joint_angle: float) -> tuple[np.ndarray, .
     """
     rotation = config.hinge_rotation()
     x_h, y_h, z_h = rotation.T
-    c, s = np.cos(joint_angle), np.sin(joint_angle)
-    x_r = c * x_h + s * y_h
-    y_r = -s * x_h + c * y_h
+    origin = np.asarray(config.joint_position, dtype=float)
+    if config.joint_type == "revolute":
+        c, s = np.cos(joint_angle), np.sin(joint_angle)
+        x_h, y_h = c * x_h + s * y_h, -s * x_h + c * y_h
+    elif config.joint_type == "prismatic":
+        origin = origin + joint_angle * z_h
     size = np.asarray(config.free_link_size)
     side = config.edge_side
-    origin = np.asarray(config.joint_position) + side * 0.5 * size[1] * y_r + 0.5 * size[2] * z_h
-    return origin, x_r, side * y_r, z_h
+    origin = origin + side * 0.5 * size[1] * y_h + 0.5 * size[2] * z_h
+    return origin, x_h, side * y_h, z_h
 
 
 def _sample_object(
@@ -121,11 +148,13 @@ def _sample_object(
 ) -> ObjectConfig:
     nominal = ObjectConfig.family_default(family, **overrides)
     size = np.asarray(nominal.free_link_size, dtype=float)
-    size[:2] *= rng.uniform(*cfg.size_scale_range, size=2)
+    # The probed face's two sizes: a slide's face spans x_H and its travel, z_H.
+    face = [0, 2] if nominal.joint_type == "prismatic" else [0, 1]
+    size[face] *= rng.uniform(*cfg.size_scale_range, size=2)
     position = np.asarray(nominal.joint_position, dtype=float)
     position[:2] += rng.uniform(-cfg.position_jitter, cfg.position_jitter, size=2)
     drawn = {"free_link_size": tuple(size), "joint_position": tuple(position)}
-    if family != "scissors":
+    if family not in cfg.fixed_layouts:
         turn = rotvec_to_matrix([0.0, 0.0, rng.uniform(*cfg.yaw_range)])
         axis = np.asarray(nominal.axis, dtype=float)
         link = np.asarray(nominal.link_direction, dtype=float)
@@ -133,9 +162,17 @@ def _sample_object(
             tilt = rng.uniform(*cfg.tilt_range)
             axis = np.array([np.sin(tilt), 0.0, np.cos(tilt)])
             link = np.array([0.0, 1.0, 0.0])
+        elif family == "tilted_drawer":
+            tilt = rng.uniform(*cfg.tilt_range)
+            axis = np.array([0.0, np.cos(tilt), np.sin(tilt)])
         drawn["axis"] = tuple(turn @ axis)
         drawn["link_direction"] = tuple(turn @ link)
-    return ObjectConfig.family_default(family, **{**overrides, **drawn})
+    config = ObjectConfig.family_default(family, **{**overrides, **drawn})
+    if cfg.face_height_range is None:
+        return config
+    origin = probed_edge(config, 0.0)[0]
+    position[2] += rng.uniform(*cfg.face_height_range) - origin[2]
+    return dataclasses.replace(config, joint_position=tuple(position))
 
 
 def _start_pose(
@@ -186,7 +223,12 @@ def sample_scenario(
     if randomize:
         family = families[int(rng.integers(len(families)))]
         object_config = _sample_object(family, rng, cfg, overrides)
-        draws = [rng.uniform(*r) for r in (cfg.joint_angle_range, cfg.start_along_range)]
+        joint_range = {
+            "revolute": cfg.joint_angle_range,
+            "prismatic": cfg.travel_range,
+            "fixed": (0.0, 0.0),
+        }[object_config.joint_type]
+        draws = [rng.uniform(*r) for r in (joint_range, cfg.start_along_range)]
         draws += [rng.uniform(*r) for r in (cfg.start_across_range, cfg.start_height_range)]
         draws += [rng.uniform(*cfg.lean_range), rng.uniform(-np.pi, np.pi)]
     else:
@@ -195,6 +237,8 @@ def sample_scenario(
         draws += [float(np.mean(r)) for r in (cfg.start_across_range, cfg.start_height_range)]
         draws += [float(np.mean(cfg.lean_range)), 0.0]
     angle = float(np.clip(draws[0], object_config.lower_limit, object_config.upper_limit))
+    if object_config.joint_type == "fixed":
+        angle = 0.0
     position, orientation = _start_pose(object_config, angle, *draws[1:], geometry)
     return Scenario(object_config, angle, position, orientation)
 

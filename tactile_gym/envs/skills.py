@@ -66,8 +66,8 @@ __all__ = [
 #: The probing primitives, chosen by the sign of action[0] (``primitive_skills``).
 PRIMITIVES = ("probe", "turn")
 #: Each primitive's code in the observation (``PrimitiveObs.kind``; 0: none yet) and in
-#: ``info["primitive_kind"]`` of the primitive ids.
-PRIMITIVE_KIND = {"probe": -1, "turn": 1}
+#: ``info["primitive_kind"]`` of the primitive ids; the joint ids' ``drag`` is their turn.
+PRIMITIVE_KIND = {"probe": -1, "turn": 1, "drag": 1}
 
 UP = np.array([0.0, 0.0, 1.0])
 #: A skill's action: the 6-D motion and the tare request (``HingeProbeEnv``'s Action Space).
@@ -315,6 +315,10 @@ class Drag(Skill):
         self.abort_force = float(abort_force)
         self._done = 0.0
 
+    def _direction(self) -> np.ndarray:
+        """The drag's unit direction in the face plane: across the edge."""
+        return np.sign(self.distance) * self.frame.interior
+
     def _move(self, reading: TouchReading) -> np.ndarray | None:
         n = self.frame.normal
         interior = self.frame.interior
@@ -329,7 +333,7 @@ class Drag(Skill):
                 np.clip((self.force - reading.magnitude) / PressConfig.stiffness, 0.0, 0.0005)
             )
             return -n * max(step, 0.0002)
-        across = np.sign(self.distance) * interior
+        across = self._direction()
         left = abs(self.distance) - abs(self._done)
         sideways = min(self.max_translation * 0.9, left)
         self._done += sideways
@@ -355,6 +359,7 @@ def primitive_skills(
     dwell: int,
     scales: PrimitiveScales,
     tare: bool = False,
+    lift_slope: float = 0.0,
 ) -> tuple[str, list[Skill]]:
     """The primitive a normalised action (3,) asks for, as the skills that carry it out.
 
@@ -364,7 +369,9 @@ def primitive_skills(
     edge, press to 5.5 N and drag ``action[1]`` across the edge (positive toward the face's
     interior). Before the first edge is known there are no directions to move in: ``probe``
     presses where it is, ``turn`` only presses. With ``tare`` both tare the sensor right
-    after the lift, before moving on (:class:`TareSensor`).
+    after the lift, before moving on (:class:`TareSensor`). The lift clears the skin by 1 mm
+    plus ``lift_slope`` times the move's length, so that a long move clears a face whose
+    normal the frame has a little wrong.
     """
     name = PRIMITIVES[int(action[0] >= 0.0)]
     offset = np.zeros(3)
@@ -372,7 +379,7 @@ def primitive_skills(
         offset = action[2] * scales.probe_along * frame.edge
         if name == "probe":
             offset = offset - action[1] * scales.probe_across * frame.interior
-    lift = Lift(max_translation, frame)
+    lift = Lift(max_translation, frame, 0.001 + lift_slope * norm(offset))
     skills: list[Skill] = [lift]
     if tare:
         skills.append(TareSensor(max_translation, frame, lift))
@@ -446,17 +453,17 @@ class PrimitiveExecutor:
 
     def start(self, action: np.ndarray, obs: dict) -> str:
         """Begin the primitive a normalised action (3,) asks for; returns its name."""
-        self.name, self._skills = primitive_skills(
-            np.clip(np.asarray(action, dtype=float), -1.0, 1.0),
-            self.frame,
-            self.max_translation,
-            self.dwell,
-            self.scales,
-            self.tare,
-        )
+        self.name, self._skills = self.skills_for(np.clip(np.asarray(action, dtype=float), -1, 1))
         self._steps = 0
         self._count = ProgressObs.read(obs).measurements
         return self.name
+
+    def skills_for(self, action: np.ndarray) -> tuple[str, list[Skill]]:
+        """The primitive a normalised action (3,) asks for, as its skills
+        (``primitive_skills``)."""
+        return primitive_skills(
+            action, self.frame, self.max_translation, self.dwell, self.scales, self.tare
+        )
 
     def act(self, obs: dict) -> np.ndarray | None:
         """The next 6-D action of the running primitive, or None once it is done."""

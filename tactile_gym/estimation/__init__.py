@@ -17,6 +17,7 @@ edge), e.g. ``var_in g g^T + var_out n n^T`` for a skin normal n and ``g = n x e
 * :class:`AxisPrior` - a Gaussian prior on the axis that the fits and the estimator fuse
   with the measurements (maximum a posteriori);
 * :func:`axis_error` - position and angle error against the truth (docs/design.md 6.7);
+  :func:`direction_error` - the angle between two directions, ignoring sign;
 * :func:`axis_nees` - normalised estimation error squared of an estimate's covariance;
 * :class:`JointTypeEstimator` / :func:`estimate_joint_type` - which joint it is (rigid,
   revolute, prismatic, or none of them), from the same measurements labelled by edge line
@@ -48,7 +49,7 @@ from tactile_gym.estimation.joint_type import (
     JointTypeEstimator,
     estimate_joint_type,
 )
-from tactile_gym.estimation.metrics import axis_error, axis_nees
+from tactile_gym.estimation.metrics import axis_error, axis_nees, direction_error
 from tactile_gym.estimation.online import COVARIANCES, JointAxisEstimator
 from tactile_gym.estimation.planar import edge_rotation_variance, planar_residual_variance
 from tactile_gym.estimation.prior import AxisPrior
@@ -83,6 +84,7 @@ __all__ = [
     "SlideEstimate",
     "axis_error",
     "axis_nees",
+    "direction_error",
     "edge_rotation_variance",
     "estimate_joint_type",
     "fit_axis_3d",

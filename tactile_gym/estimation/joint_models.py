@@ -40,7 +40,7 @@ from tactile_gym.estimation.lines import (
     line_residuals,
     line_rows,
 )
-from tactile_gym.estimation.online import JointAxisEstimator
+from tactile_gym.estimation.online import COVARIANCES, JointAxisEstimator
 from tactile_gym.estimation.prior import PIN_STD_FLOOR, AxisPrior
 from tactile_gym.estimation.problem import _PriorTerm, basis
 from tactile_gym.estimation.robust import check_loss
@@ -890,8 +890,19 @@ class PrismaticModel(_LineModel):
         return state, *self._evidence(data, state, log_rigid)
 
     def fit(self, data: LineData, rigid: ModelFit | None = None) -> ModelFit:
+        """As ``JointModel.fit``; with ``along_edge_probability`` the evidence is the mixture
+        of a fitted direction and a slide along each measured edge, the direction reported
+        is that of its most probable component (the fitted one, or an edge's), and its
+        covariance the mixture's about it: each component's, plus its direction's offset
+        from the reported one, weighted by its posterior probability (``docs/design.md``
+        6.10)."""
         log_rigid = self._rigid_log_evidence(data, rigid)
         state, ev, info = self._fit_state(data, log_rigid)
+        v = state.joint
+        cols = info["joint_cols"]
+        t = self._tangents(v) if cols.size else np.zeros((0, 3))
+        cov = t.T @ ev.covariance[np.ix_(cols, cols)] @ t
+        identified = self._identified(ev, info)
         along = self.prior.along_edge_probability
         if self.along is None and along > 0.0:
             models = {}
@@ -900,21 +911,39 @@ class PrismaticModel(_LineModel):
                 models[key] = self._along.get(key) or PrismaticModel(self.mode, self.prior, group)
             # Kept for the next fit to start from (lines and configurations carry over).
             self._along = models
-            fixed = [model._fit_state(data, log_rigid)[2] for model in models.values()]
+            fixed = [model._fit_state(data, log_rigid) for model in models.values()]
             if fixed:
-                log_fixed = np.logaddexp.reduce([f["log_evidence"] for f in fixed])
-                info["log_evidence"] = float(
-                    np.logaddexp(
-                        math.log1p(-along) + info["log_evidence"],
-                        math.log(along) + float(log_fixed) - math.log(len(fixed)),
-                    )
-                )
-        v = state.joint
-        cols = info["joint_cols"]
-        t = self._tangents(v) if cols.size else np.zeros((0, 3))
-        cov = t.T @ ev.covariance[np.ix_(cols, cols)] @ t
+                log_w = [math.log1p(-along) + info["log_evidence"]]
+                log_w += [
+                    math.log(along) - math.log(len(fixed)) + f[2]["log_evidence"] for f in fixed
+                ]
+                info["log_evidence"] = float(np.logaddexp.reduce(log_w))
+                parts = [(v, cov)]
+                parts += [m._edge_direction(*f[:2]) for m, f in zip(models.values(), fixed)]
+                w = np.exp(np.array(log_w) - info["log_evidence"])
+                best = int(np.argmax(w))
+                v = parts[best][0]
+                identified = identified or best > 0
+                cov = np.zeros((3, 3))
+                normal = np.eye(3) - np.outer(v, v)
+                for weight, (u, c) in zip(w, parts):
+                    offset = normal @ (u * math.copysign(1.0, float(u @ v)))
+                    cov += weight * (normal @ c @ normal + np.outer(offset, offset))
         direction, _ = canonical_direction(v)
-        return self._model_fit(data, ev, info, direction, cov, self._identified(ev, info))
+        return self._model_fit(data, ev, info, direction, cov, identified)
+
+    def _edge_direction(self, state: _LineState, ev: Evidence) -> tuple[np.ndarray, np.ndarray]:
+        """A slide along line j (``along``): its direction (``"planar"``: in the table
+        plane) and covariance (3, 3), rad^2, from the line's direction's at the fit."""
+        j = self.along[0]
+        b = self._frame(state)[j]
+        cov = b.T @ ev.covariance[4 * j : 4 * j + 2, 4 * j : 4 * j + 2] @ b
+        v, n = self._flatten(state.eps[j])
+        if self.mode == "planar":
+            flat = np.diag([1.0, 1.0, 0.0])
+            d = (flat - np.outer(v, v) @ flat) / n
+            cov = d @ cov @ d.T
+        return v, cov
 
 
 class RevoluteModel(_LineModel):
@@ -931,15 +960,24 @@ class RevoluteModel(_LineModel):
         mode: ``"planar"`` (vertical axis) or ``"3d"``.
         prior: the priors.
         loss: the axis fit's loss (one of ``LOSSES``).
+        covariance: what the axis fit takes the handed noise for (``COVARIANCES``:
+            ``"independent"`` or ``"calibrated"``, :class:`JointAxisEstimator`).
     """
 
     joint_type = "revolute"
 
     def __init__(
-        self, mode: str = "3d", prior: JointTypePrior | None = None, loss: str = "soft_l1"
+        self,
+        mode: str = "3d",
+        prior: JointTypePrior | None = None,
+        loss: str = "soft_l1",
+        covariance: str = "independent",
     ) -> None:
         check_loss(loss)
+        if covariance not in COVARIANCES:
+            raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
         self.loss = loss
+        self.covariance = covariance
         super().__init__(mode, prior)
         self.motion_range = self.prior.turn_range
 
@@ -955,7 +993,9 @@ class RevoluteModel(_LineModel):
         primary = int(np.argmax(np.bincount(data.line)))
         if self._axis_fit is None or primary != self._primary:
             prior = self.prior.axis_prior(self.mode, data.x[0])
-            self._axis_fit = JointAxisEstimator(self.mode, self.loss, prior=prior)
+            self._axis_fit = JointAxisEstimator(
+                self.mode, self.loss, prior=prior, covariance=self.covariance
+            )
             self._primary, self._fed = primary, 0
         idx = np.flatnonzero(data.line == primary)
         for i in idx[self._fed :]:

@@ -135,6 +135,9 @@ class JointTypeEstimator:
         prior: the priors (:class:`~tactile_gym.estimation.joint_models.JointTypePrior`);
             kept across :meth:`reset`.
         loss: the revolute axis fit's loss (one of ``LOSSES``).
+        covariance: what the revolute axis fit takes the handed noise for
+            (``COVARIANCES``, :class:`~tactile_gym.estimation.online.JointAxisEstimator`);
+            the models' likelihoods take it as independent either way.
         min_measurements: measurements needed before the models are fitted (>= 2).
         rule: the model-selection rule, one of ``RULES``.
         fit_alpha: level of the chi-square goodness-of-fit tests (flags ``"no_motion"``
@@ -149,6 +152,7 @@ class JointTypeEstimator:
         min_measurements: int = 2,
         rule: str = "laplace",
         fit_alpha: float = 1e-3,
+        covariance: str = "independent",
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -167,6 +171,7 @@ class JointTypeEstimator:
         self.min_measurements = int(min_measurements)
         self.rule = rule
         self.fit_alpha = float(fit_alpha)
+        self.covariance = covariance
         self.reset()
 
     def reset(self) -> None:
@@ -182,7 +187,7 @@ class JointTypeEstimator:
         self._config_ids: dict[object, int] = {}
         self._models = (
             RigidModel(self.mode, self.prior),
-            RevoluteModel(self.mode, self.prior, self.loss),
+            RevoluteModel(self.mode, self.prior, self.loss, self.covariance),
             PrismaticModel(self.mode, self.prior),
         )
         self._n_full = 0

@@ -331,10 +331,22 @@ def laplace_evidence(
     # Cholesky of the diagonally scaled matrix: positions in m and angles in rad differ by
     # orders of magnitude in information.
     scale = np.sqrt(np.diag(info))
-    chol = np.linalg.cholesky(info / scale[:, None] / scale[None, :])
-    logdet = 2.0 * float(np.sum(np.log(np.diag(chol)))) + 2.0 * float(np.sum(np.log(scale)))
-    inv_l = np.linalg.inv(chol)
-    cov = (inv_l.T @ inv_l) / scale[:, None] / scale[None, :]
+    scaled = info / scale[:, None] / scale[None, :]
+    try:
+        chol = np.linalg.cholesky(scaled)
+        logdet = 2.0 * float(np.sum(np.log(np.diag(chol))))
+        inv_l = np.linalg.inv(chol)
+        cov = inv_l.T @ inv_l
+    except np.linalg.LinAlgError:
+        # A combination that neither the data nor a Gaussian prior determine (to rounding):
+        # it counts with the weakest flat prior's curvature, not as an infinite volume.
+        floor = float(np.min(np.where(prior_precision > 0, prior_precision, np.inf) / scale**2))
+        values, vectors = np.linalg.eigh(scaled)
+        values = np.maximum(values, floor if np.isfinite(floor) else 1e-12)
+        logdet = float(np.sum(np.log(values)))
+        cov = (vectors / values) @ vectors.T
+    logdet += 2.0 * float(np.sum(np.log(scale)))
+    cov = cov / scale[:, None] / scale[None, :]
     step = -(cov @ grad)
     r_new = r + jac @ step
     chi2 = float(r_new @ r_new)

@@ -11,7 +11,7 @@ import numpy as np
 
 from tactile_gym.estimation.axis import AxisEstimate
 
-__all__ = ["axis_error", "axis_nees"]
+__all__ = ["axis_error", "axis_nees", "direction_error"]
 
 
 def _vec3(value: object, name: str) -> np.ndarray:
@@ -60,10 +60,18 @@ def axis_error(
     if estimate is None or estimate.degenerate:
         return math.inf, math.pi / 2
     position = float(estimate.distance_to(ref))
-    cos = min(abs(float(estimate.direction @ u)), 1.0)
+    return position, direction_error(estimate.direction, u)
+
+
+def direction_error(direction: np.ndarray, true_direction: np.ndarray) -> float:
+    """The angle between two directions (unit, or the truth any length > 0), ignoring sign,
+    rad in [0, pi/2]."""
+    u = np.asarray(true_direction, dtype=float)
+    u = u / np.linalg.norm(u)
+    cos = min(abs(float(direction @ u)), 1.0)
     # arctan2 of |cross| and |dot| stays accurate for tiny angles, where arccos does not.
-    sin = float(np.linalg.norm(np.cross(estimate.direction, u)))
-    return position, math.atan2(sin, cos)
+    sin = float(np.linalg.norm(np.cross(direction, u)))
+    return math.atan2(sin, cos)
 
 
 def axis_nees(

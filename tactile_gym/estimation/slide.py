@@ -24,6 +24,7 @@ import numpy as np
 from tactile_gym.estimation.axis import as_points, canonical_direction
 from tactile_gym.estimation.joint_models import JointTypePrior, PrismaticModel
 from tactile_gym.estimation.joint_type import JointTypeEstimator, feed
+from tactile_gym.estimation.metrics import direction_error
 
 __all__ = ["SlideEstimate", "fit_slide_direction", "fit_slide_simple", "slide_error"]
 
@@ -163,5 +164,4 @@ def slide_error(estimate: SlideEstimate, true_direction: np.ndarray) -> float:
         raise ValueError(f"true_direction must be a finite non-zero (3,) vector, got {u!r}")
     if estimate.degenerate:
         return math.pi / 2
-    d = estimate.direction
-    return math.atan2(float(np.linalg.norm(np.cross(d, u))), abs(float(d @ u)))
+    return direction_error(estimate.direction, u)

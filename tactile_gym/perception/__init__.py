@@ -5,7 +5,10 @@ joint axis out. NumPy and SciPy only: no simulator, no Gymnasium.
   (``tactile_gym.sensing.TouchSensor``), the measurement gate, its same-edge test and the
   online estimator, fed one :class:`Sample` at a time (``pipeline``);
 * :class:`MeasurementGate` and :class:`GateConfig`: which touches become measurements, each
-  refusal named by its rule (``gate``, ``docs/design.md`` 7.2).
+  refusal named by its rule (``gate``, ``docs/design.md`` 7.2);
+* :class:`JointPipeline`: the same pipeline for an unknown joint, its presses labelled by edge
+  line and link configuration (:class:`LabelConfig`) for the joint-type estimator
+  (``joints``, ``docs/design.md`` 7.12).
 
 The env (``tactile_gym.envs``) and the log replay (``tactile_gym.replay``) feed the same
 pipeline; what is known before touching (the estimator's prior, the probed edge's distance
@@ -13,6 +16,7 @@ from the axis) is handed to it.
 """
 
 from tactile_gym.perception.gate import GATE_RULES, GateConfig, Measurement, MeasurementGate
+from tactile_gym.perception.joints import JointPipeline, LabelConfig
 from tactile_gym.perception.pipeline import (
     DISTINCT_ANGLE,
     STREAM_FAULTS,
@@ -29,6 +33,8 @@ __all__ = [
     "GATE_RULES",
     "STREAM_FAULTS",
     "GateConfig",
+    "JointPipeline",
+    "LabelConfig",
     "Measurement",
     "MeasurementGate",
     "MeasurementPipeline",

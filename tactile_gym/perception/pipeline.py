@@ -223,7 +223,7 @@ class MeasurementPipeline:
         self.tares: list[TareRecord] = []
         self._directions: list[np.ndarray] = []  # one representative per distinct direction
         self.span = 0.0
-        self.estimate: AxisEstimate = self.estimator.estimate()
+        self.estimate: AxisEstimate = self._estimate()
         #: Time of the last tare taken, s (the first sample's when there was none).
         self.tare_time = float(sample.time)
         self._last: Sample | None = None
@@ -255,15 +255,14 @@ class MeasurementPipeline:
             self._record(sample.time, False)
         accepted = []
         for m in offered:
-            kept = self.gate.same_edge(m, self.estimate)
+            kept = self._admit(m)
             self._record(sample.time, kept)
             if kept:
-                self.estimator.add(m.point, m.edge, m.point_std, m.edge_std, edge_cov=m.edge_cov)
                 self._count_direction(m.edge)
                 accepted.append(m)
         self.measurements.extend(accepted)
         if accepted:
-            self.estimate = self.estimator.estimate()
+            self.estimate = self._estimate()
         return Perceived(wrench, self.touch, tuple(accepted), tared, refused, fault)
 
     @property
@@ -281,6 +280,18 @@ class MeasurementPipeline:
         return float(time) - self.tare_time
 
     # ------------------------------------------------------------------ the steps
+    def _admit(self, m: Measurement) -> bool:
+        """Steps 4-5 for a measurement the gate completed: the same-edge test against the
+        current estimate, then the estimator; whether it entered."""
+        if not self.gate.same_edge(m, self.estimate):
+            return False
+        self.estimator.add(m.point, m.edge, m.point_std, m.edge_std, edge_cov=m.edge_cov)
+        return True
+
+    def _estimate(self) -> AxisEstimate:
+        """The estimator's current axis estimate."""
+        return self.estimator.estimate()
+
     def _check(self, sample: Sample) -> str:
         """The stream fault a sample shows (step 1), or ""; a fault spoils the touch."""
         last, limits = self._last, self.limits

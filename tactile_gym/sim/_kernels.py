@@ -41,7 +41,7 @@ import math
 import numpy as np
 
 from tactile_gym.sim._jit import kernel
-from tactile_gym.sim._pose_kernels import advance_into, matvec_entry, sum_fma, turned_frame
+from tactile_gym.sim._pose_kernels import advance_into, joint_frame, matvec_entry, sum_fma
 
 BOX = 0
 PLANE = 1
@@ -571,7 +571,7 @@ def substep(
 ):
     """One physics substep of the skin: move, evaluate with the guarded move, commit.
 
-    The primitive on the revolute link (row ``link_row`` of the candidate primitives, -1 if
+    The primitive on the jointed link (row ``link_row`` of the candidate primitives, -1 if
     not among them) is posed at ``angle``; the fingertip advances from the committed ``pose``
     by ``motion`` (rows 0-2 the per-substep rotation, applied when ``turning``; row 3 the
     translation). If that raises |f| above ``limit`` (and above ``f_prev``), the guarded move
@@ -586,7 +586,8 @@ def substep(
         pose: (4, 3) committed fingertip pose, in/out.
         motion: (4, 3) per-substep rotation and translation. turning: apply the rotation.
         step_len: bound on any node's displacement by one substep of ``motion``, m.
-        link, link_row, angle: the revolute link (``turned_frame``) and its angle, rad.
+        link, link_row, angle: the jointed link (``joint_frame``) and its coordinate, rad or
+            m.
         f_prev: |f| of the committed contact, N. limit: the guard's |f| limit, N.
         reaction: (3, 3) out: force and torque (about its centre) on the link's primitive,
             world frame, and that centre; valid when the returned ``pushed`` is True.
@@ -597,7 +598,7 @@ def substep(
         whether the link's primitive is touched.
     """
     if link_row >= 0:
-        turned_frame(link, angle, poses[link_row + 1])
+        joint_frame(link, angle, poses[link_row + 1])
     cand = np.empty((4, 3))
     advance_into(pose, motion, turning, cand)
     poses[0] = cand

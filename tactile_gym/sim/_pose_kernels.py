@@ -1,4 +1,4 @@
-"""Compiled pose arithmetic of a substep: the fingertip's motion and a revolute link's pose.
+"""Compiled pose arithmetic of a substep: the fingertip's motion and a jointed link's pose.
 
 These replaced NumPy products in :mod:`tactile_gym.sim._kernels`' substep and give their
 results to the bit (``docs/design.md`` 3.5), so the lean step keeps the trajectories of the
@@ -15,6 +15,10 @@ from numba import types
 from numba.extending import intrinsic
 
 from tactile_gym.sim._jit import kernel
+
+#: The joint kinds, as the last row of a link array holds them (``HingedObject.link``, row 5,
+#: column 0); a link array of five rows is a revolute link's.
+REVOLUTE, PRISMATIC, FIXED = 0.0, 1.0, 2.0
 
 
 @intrinsic
@@ -63,11 +67,38 @@ def turned_frame(link, angle, out):
         )
 
 
+@kernel(inline="always")
+def slid_frame(link, travel, out):
+    """Pose of a primitive on a prismatic link into ``out`` (4, 3): rotation H, then centre
+    pin + H c + travel a, with a the joint's direction (H's third column). ``link`` as for
+    ``turned_frame``."""
+    for r in range(3):
+        for c in range(3):
+            out[r, c] = link[r, c]
+    for r in range(3):
+        out[3, r] = (
+            link[3, r]
+            + matvec_entry(link[r, 0], link[4, 0], link[r, 1], link[4, 1], link[r, 2], link[4, 2])
+            + travel * link[r, 2]
+        )
+
+
+@kernel(inline="always")
+def joint_frame(link, q, out):
+    """Pose of the primitive on a jointed link at joint coordinate ``q`` (rad or m) into
+    ``out`` (4, 3): ``slid_frame`` for a prismatic link (row 5 of ``link``), else
+    ``turned_frame`` (a fixed link stays at ``q`` = 0, where the revolute pose is H itself)."""
+    if link.shape[0] > 5 and link[5, 0] == PRISMATIC:
+        slid_frame(link, q, out)
+    else:
+        turned_frame(link, q, out)
+
+
 @kernel()
 def link_pose(link, angle):
-    """(4, 3) pose of a primitive on a revolute link at ``angle`` (see ``turned_frame``)."""
+    """(4, 3) pose of a primitive on a jointed link at ``angle`` (rad or m; ``joint_frame``)."""
     out = np.empty((4, 3))
-    turned_frame(link, angle, out)
+    joint_frame(link, angle, out)
     return out
 
 

@@ -1,21 +1,24 @@
-"""Compiled control step of the v3 physics (``docs/design.md`` 3.6): the hinge and the skin's
-substeps in one call.
+"""Compiled control step of the v3 physics (``docs/design.md`` 3.6, 3.7): the joint and the
+skin's substeps in one call.
 
 The v2 step calls PyBullet three or four times per substep (the joint angle, the reaction,
 ``stepSimulation``) and the skin's kernel once; here the substeps of a control step run in
 one compiled loop, and the free link's one degree of freedom is integrated in it
-(``hinge_step``) with the scheme PyBullet's multibody applies to a revolute joint on a fixed
-base: semi-implicit Euler, the viscous damping as an explicit torque, the holding friction
-as a velocity motor whose impulse is clamped to ``holding_torque`` times the step. Away from
-the joint's limits this gives PyBullet's joint angle to rounding (``tests/test_sim_hinge.py``);
-at a limit it is a hard stop, where PyBullet's limit lets the link sink in and pushes it
-back over several steps.
+(``hinge_step``) with the scheme PyBullet's multibody applies to a revolute or prismatic
+joint on a fixed base: semi-implicit Euler, the viscous damping as an explicit torque (force),
+the holding friction as a velocity motor whose impulse is clamped to ``holding_torque`` times
+the step. Away from the joint's limits this gives PyBullet's joint coordinate to rounding
+(``tests/test_sim_hinge.py``); at a limit it is a hard stop, where PyBullet's limit lets the
+link sink in and pushes it back over several steps. A fixed joint never moves.
 
-Frames and units: world frame, SI (rad, rad/s, N m, s). ``link`` (5, 3) is the free link as
-``_pose_kernels.turned_frame`` takes it: the hinge frame's axes as columns (rows 0-2, the
-joint axis is column 2), the pin, the free box's centre in the link frame (its centre of
-mass). ``hinge`` (8,): inertia about the axis (kg m^2), viscous damping (N m s/rad),
-holding torque (N m), lower and upper limit (rad), the link's weight m g (3, N).
+Frames and units: world frame, SI (rad, rad/s, N m for a revolute joint; m, m/s, N for a
+prismatic one; s). ``link`` (6, 3) is the free link as ``_pose_kernels.joint_frame`` takes
+it: the hinge frame's axes as columns (rows 0-2, the joint's axis or direction of travel is
+column 2), the pin, the free box's centre in the link frame (its centre of mass), and the
+joint's kind (row 5, column 0: ``_pose_kernels.REVOLUTE``, ``PRISMATIC`` or ``FIXED``; a link
+of five rows is revolute). ``hinge`` (8,): the inertia about the axis (kg m^2; prismatic: the
+link's mass, kg), viscous damping (N m s/rad; N s/m), holding torque (N m; N), lower and upper
+limit (rad; m), the link's weight m g (3, N).
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import numpy as np
 
 from tactile_gym.sim import _kernels
 from tactile_gym.sim._jit import kernel
-from tactile_gym.sim._pose_kernels import advance_into, turned_frame
+from tactile_gym.sim._pose_kernels import FIXED, PRISMATIC, REVOLUTE, advance_into, joint_frame
 
 #: Entries of ``hinge`` (module docstring); ``WEIGHT`` is the first of three.
 INERTIA, DAMPING, HOLDING, LOWER, UPPER, WEIGHT = 0, 1, 2, 3, 4, 5
@@ -39,30 +42,43 @@ LIMITED, SHELL, MAX_PEN, MAX_FORCE, PUSHED, TIP_MOVED, EVALUATED = 0, 1, 2, 3, 4
 STATS_COLS = 7
 
 
+@kernel(inline="always")
+def joint_kind(link):
+    """The joint's kind of a link array (module docstring)."""
+    return link[5, 0] if link.shape[0] > 5 else REVOLUTE
+
+
 @kernel()
 def hinge_step(hinge, link, link_pose, joint, torque, dt):
-    """One step of the free link about its joint: ``joint`` (angle, velocity) in place.
+    """One step of the free link along its joint: ``joint`` (coordinate, velocity) in place.
 
     Args:
         hinge: (8,) the joint's dynamics (module docstring).
-        link: (5, 3) the free link (module docstring).
-        link_pose: (4, 3) the free box's pose at the current angle (rotation, centre).
-        joint: (2,) angle (rad) and velocity (rad/s), in/out.
-        torque: applied torque about the joint axis, N m.
+        link: (6, 3) the free link (module docstring).
+        link_pose: (4, 3) the free box's pose at the current coordinate (rotation, centre).
+        joint: (2,) coordinate (rad or m) and velocity (rad/s or m/s), in/out.
+        torque: applied torque about the joint axis, N m (prismatic: force along it, N).
         dt: time step, s.
     """
+    kind = joint_kind(link)
+    if kind == FIXED:
+        return
     q, qd = joint[0], joint[1]
     inertia = hinge[INERTIA]
-    # The weight's torque about the axis: a . ((centre - pin) x m g).
-    l0 = link_pose[3, 0] - link[3, 0]
-    l1 = link_pose[3, 1] - link[3, 1]
-    l2 = link_pose[3, 2] - link[3, 2]
     g0, g1, g2 = hinge[WEIGHT], hinge[WEIGHT + 1], hinge[WEIGHT + 2]
-    gravity = (
-        link[0, 2] * (l1 * g2 - l2 * g1)
-        + link[1, 2] * (l2 * g0 - l0 * g2)
-        + link[2, 2] * (l0 * g1 - l1 * g0)
-    )
+    if kind == PRISMATIC:
+        # The weight's part along the direction of travel: a . m g.
+        gravity = link[0, 2] * g0 + link[1, 2] * g1 + link[2, 2] * g2
+    else:
+        # The weight's torque about the axis: a . ((centre - pin) x m g).
+        l0 = link_pose[3, 0] - link[3, 0]
+        l1 = link_pose[3, 1] - link[3, 1]
+        l2 = link_pose[3, 2] - link[3, 2]
+        gravity = (
+            link[0, 2] * (l1 * g2 - l2 * g1)
+            + link[1, 2] * (l2 * g0 - l0 * g2)
+            + link[2, 2] * (l0 * g1 - l1 * g0)
+        )
     v = qd + dt * (torque + gravity - hinge[DAMPING] * qd) / inertia
     # The holding friction: a motor toward zero velocity whose impulse is at most
     # holding_torque * dt.
@@ -93,6 +109,20 @@ def axial_torque(link, reaction):
     t1 = reaction[1, 1] + l2 * f0 - l0 * f2
     t2 = reaction[1, 2] + l0 * f1 - l1 * f0
     return link[0, 2] * t0 + link[1, 2] * t1 + link[2, 2] * t2
+
+
+@kernel()
+def joint_load(link, reaction):
+    """What ``reaction`` (3, 3; ``axial_torque``) drives the joint with: the torque about a
+    revolute joint's axis (N m), the force along a prismatic joint's direction (N), 0 for a
+    fixed joint."""
+    kind = joint_kind(link)
+    if kind == FIXED:
+        return 0.0
+    if kind == PRISMATIC:
+        f = reaction[0]
+        return link[0, 2] * f[0] + link[1, 2] * f[1] + link[2, 2] * f[2]
+    return axial_torque(link, reaction)
 
 
 @kernel()
@@ -220,10 +250,11 @@ def control_step(
         pose, motion, turning, step_len: as in ``_kernels.substep``; ``pose`` in/out.
         substeps: how many substeps to run at most.
         link, link_row: the free link and its row in the selection (-1: not in it).
-        hinge, joint: the joint's dynamics and its (angle, velocity), in/out.
-        link_pose: (4, 3) out: the free box's pose at the angle reached.
-        q_selected, link_reach: the angle at the selection (rad) and the largest distance of
-            a point of the free box from the pin (m).
+        hinge, joint: the joint's dynamics and its (coordinate, velocity), in/out.
+        link_pose: (4, 3) out: the free box's pose at the coordinate reached.
+        q_selected, link_reach: the coordinate at the selection (rad or m) and the largest
+            motion of a point of the free box per unit of it (m/rad: its largest distance
+            from the pin; 1 for a prismatic link, 0 for a fixed one).
         reach: the selection's reach, m.
         limit, damping_rate, dt: the guard's |f| limit (N), the skin's damping over the step
             (Pa/m), the time step (s).
@@ -267,10 +298,10 @@ def control_step(
         q = joint[0]
         moved = tip_moved + step_len + abs(q - q_selected) * link_reach
         if not moved < reach:
-            turned_frame(link, q, link_pose)
+            joint_frame(link, q, link_pose)
             stats[TIP_MOVED] = tip_moved
             return k, released, evaluated, out
-        turned_frame(link, q, link_pose)
+        joint_frame(link, q, link_pose)
         torque = 0.0
         if free:
             stats[PUSHED] = 0.0
@@ -314,9 +345,9 @@ def control_step(
             stats[MAX_FORCE] = max(stats[MAX_FORCE], f_prev)
             stats[PUSHED] = 1.0 if pushed else 0.0
             if pushed:
-                torque = axial_torque(link, reaction)
+                torque = joint_load(link, reaction)
             torque_evaluated = torque
         hinge_step(hinge, link, link_pose, joint, torque, dt)
-    turned_frame(link, joint[0], link_pose)
+    joint_frame(link, joint[0], link_pose)
     stats[TIP_MOVED] = tip_moved
     return substeps, released, evaluated, out

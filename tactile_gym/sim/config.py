@@ -1,4 +1,4 @@
-"""Configuration dataclasses of the simulator: the skin and the hinged objects.
+"""Configuration dataclasses of the simulator: the skin and the jointed objects.
 
 The F/T sensor's ``SensorConfig`` lives in ``tactile_gym.sensing`` (real robots need it too).
 
@@ -8,7 +8,9 @@ presets that hold only what differs from ``ObjectConfig``'s defaults (the paper'
 field is type- and range-checked with :mod:`tactile_gym.validation`.
 
 All values are SI: metres, newtons, radians, seconds. Frames: ``ObjectConfig.joint_position``,
-``axis`` and ``link_direction`` are in the world frame (z up, table top at z = 0).
+``axis`` and ``link_direction`` are in the world frame (z up, table top at z = 0). A joint's
+coordinate, limits, damping and holding friction are in its own units: radians, N m s/rad and
+N m for a revolute joint; metres, N s/m and N for a prismatic one.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from tactile_gym.validation import (
     check_vector,
 )
 
-__all__ = ["FAMILIES", "ObjectConfig", "SkinConfig"]
+__all__ = ["FAMILIES", "JOINT_TYPES", "ObjectConfig", "SkinConfig", "family_joint_type"]
 
 
 @dataclass(frozen=True)
@@ -73,25 +75,35 @@ class SkinConfig:
         return float(self.tangential_stiffness)
 
 
-FAMILIES = ("scissors", "door", "lid", "tilted")
+#: The object families, each a preset ``configs/objects/<family>.yml``: the revolute ones
+#: (the ``HingeProbe`` ids'), then the prismatic and the fixed ones (``docs/design.md`` 3.7).
+FAMILIES = ("scissors", "door", "lid", "tilted", "slider", "drawer", "tilted_drawer", "block")
+#: The joints an object may have: a hinge, a slide, or none (the free link is fixed).
+JOINT_TYPES = ("revolute", "prismatic", "fixed")
 
 
 @dataclass(frozen=True)
 class ObjectConfig:
-    """A two-link object with one revolute joint.
+    """A two-link object with one joint: revolute (a hinge), prismatic (a slide) or fixed.
 
-    Geometry is given in the *hinge frame* H: origin at the hinge pin centre
-    (``joint_position``, world), z_H along ``axis``, x_H along ``link_direction`` made
-    perpendicular to the axis (where the free link points at joint angle 0), y_H = z_H x x_H.
-    Each link is a box with rounded edges whose size is (along x_H, along y_H, along z_H).
-    The free link extends along +x_H from the pin, the fixed link along -x_H; each overlaps
-    the pin by ``pin_overlap``.
+    Geometry is given in the *hinge frame* H: origin at the joint's reference point
+    (``joint_position``, world: a revolute joint's pin centre), z_H along ``axis`` (a revolute
+    joint's axis, a prismatic joint's direction of travel), x_H along ``link_direction`` made
+    perpendicular to the axis (where the free link points at joint coordinate 0), y_H =
+    z_H x x_H. Each link is a box with rounded edges whose size is (along x_H, along y_H,
+    along z_H). The free link extends along +x_H from the pin, the fixed link along -x_H;
+    each overlaps the pin by ``pin_overlap``. A revolute joint turns the free link about z_H
+    by its angle; a prismatic one moves it along z_H by its travel; a fixed one never moves
+    it.
 
     The probed edge of the free link is the edge line along x_H at
     y_H = ``edge_side`` * size_y / 2, z_H = +size_z / 2 (the sharp corner of the two faces).
+    On a prismatic object it is square to the travel (a drawer's front edge).
 
     Attributes:
-        family: "scissors", "door", "lid" or "tilted" (informational).
+        family: one of ``FAMILIES`` (informational).
+        joint_type: one of ``JOINT_TYPES``; the units of the joint's fields below follow it
+            (module docstring).
         free_link_size: (x, y, z) size of the free link, hinge frame, m.
         fixed_link_size: (x, y, z) size of the fixed link, hinge frame, m.
         pin_overlap: how far each link extends past the pin centre, m.
@@ -99,16 +111,18 @@ class ObjectConfig:
         joint_position: hinge pin centre, world frame, m.
         axis: joint axis direction, world frame (normalised on use).
         link_direction: direction of the free link at joint angle 0, world frame.
-        lower_limit, upper_limit: joint limits, rad. The default +-150 deg stops the free link
-            before it folds onto the fixed one (the object's own collisions are off).
-        damping: viscous joint damping, N m s/rad.
+        lower_limit, upper_limit: joint limits, rad (prismatic: m). The default +-150 deg
+            stops the free link before it folds onto the fixed one (the object's own
+            collisions are off). A fixed joint has none.
+        damping: viscous joint damping, N m s/rad (prismatic: N s/m).
         holding_torque: max force of the zero-velocity motor that gives the joint its
-            holding (Coulomb-like) friction, N m.
+            holding (Coulomb-like) friction, N m (prismatic: N).
         free_link_mass: mass of the free link, kg.
         edge_side: +1 or -1, which y_H side of the free link is probed.
     """
 
     family: str = "scissors"
+    joint_type: str = "revolute"
     free_link_size: tuple[float, float, float] = (0.10, 0.02, 0.008)
     fixed_link_size: tuple[float, float, float] = (0.10, 0.02, 0.008)
     pin_overlap: float = 0.01
@@ -125,6 +139,7 @@ class ObjectConfig:
 
     def __post_init__(self) -> None:
         check_choice("object.family", self.family, FAMILIES)
+        check_choice("object.joint_type", self.joint_type, JOINT_TYPES)
         check_number("object.edge_radius", self.edge_radius, 0.0, 0.01)
         for name in ("free_link_size", "fixed_link_size"):
             size = check_vector(f"object.{name}", getattr(self, name), bound=0.5)
@@ -178,7 +193,15 @@ class ObjectConfig:
                 f"object.family is the name of the family drawn ({family!r}) and cannot be"
                 f" overridden, got {overrides['family']!r}; choose the families instead"
             )
-        return build_config(cls, {**_family_preset(family), **overrides}, "object")
+        preset = _family_preset(family)
+        joint = preset.get("joint_type", "revolute")
+        if overrides.get("joint_type", joint) != joint:
+            raise ValueError(
+                f"object.joint_type belongs to the family drawn ({family!r}: {joint!r}) and"
+                f" cannot be overridden, got {overrides['joint_type']!r}; choose the families"
+                " instead"
+            )
+        return build_config(cls, {**preset, **overrides}, "object")
 
     @classmethod
     def scissors(cls, **overrides: Any) -> ObjectConfig:
@@ -199,6 +222,36 @@ class ObjectConfig:
     def tilted(cls, **overrides: Any) -> ObjectConfig:
         """Scissors-like links on an axis tilted 20 degrees from vertical, above the table."""
         return cls.family_default("tilted", **overrides)
+
+    @classmethod
+    def slider(cls, **overrides: Any) -> ObjectConfig:
+        """A plate on the table that slides along the table beside a fixed rail."""
+        return cls.family_default("slider", **overrides)
+
+    @classmethod
+    def drawer(cls, **overrides: Any) -> ObjectConfig:
+        """A box whose top face is probed, sliding horizontally out of its cabinet's side."""
+        return cls.family_default("drawer", **overrides)
+
+    @classmethod
+    def tilted_drawer(cls, **overrides: Any) -> ObjectConfig:
+        """A drawer sliding 20 degrees up from horizontal, above the table."""
+        return cls.family_default("tilted_drawer", **overrides)
+
+    @classmethod
+    def block(cls, **overrides: Any) -> ObjectConfig:
+        """A plate fixed to the table: no joint moves it."""
+        return cls.family_default("block", **overrides)
+
+
+def family_joint_type(family: str) -> str:
+    """The joint type of a family's preset (one of ``JOINT_TYPES``).
+
+    Raises:
+        ValueError: an unknown family, naming the allowed ones.
+    """
+    check_choice("family", family, FAMILIES)
+    return str(_family_preset(family).get("joint_type", "revolute"))
 
 
 @cache

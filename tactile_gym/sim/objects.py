@@ -1,18 +1,21 @@
-"""Hinged two-link objects built in a :class:`~tactile_gym.sim.world.World`.
+"""Jointed two-link objects built in a :class:`~tactile_gym.sim.world.World`.
 
 Frames (see :class:`~tactile_gym.sim.config.ObjectConfig`):
 
 * world: z up, table top at z = 0;
-* hinge frame H: origin at the pin centre, z_H along the joint axis, x_H where the free link
-  points at joint angle 0; fixed in the world (the fixed link's frame);
-* free-link frame: H turned by the joint angle about z_H.
+* hinge frame H: origin at the joint's reference point (a hinge's pin centre), z_H along the
+  joint axis (a slide's direction of travel), x_H where the free link points at joint
+  coordinate 0; fixed in the world (the fixed link's frame);
+* free-link frame: H turned by the joint angle about z_H (revolute), or moved along z_H by
+  the joint's travel (prismatic), or H itself (fixed).
 
 The object is one PyBullet multibody built with ``createMultiBody`` (no URDF file, and no
 ``createCollisionShapeArray``, which silently keeps only 16 children): a static base (the
-fixed link, mass 0) and one revolute child (the free link). PyBullet collisions of the object
-are switched off: the skin computes contact itself, and link-on-table friction would be an
-uncontrolled second source of joint friction. The joint's holding friction is a
-zero-velocity motor with a small max force (docs/design.md 3.3) plus viscous damping.
+fixed link, mass 0) and one child (the free link) on a revolute, prismatic or fixed joint.
+PyBullet collisions of the object are switched off: the skin computes contact itself, and
+link-on-table friction would be an uncontrolled second source of joint friction. A moving
+joint's holding friction is a zero-velocity motor with a small max force (docs/design.md 3.3,
+3.7) plus viscous damping.
 """
 
 from __future__ import annotations
@@ -28,19 +31,31 @@ from tactile_gym.spatial import matrix_to_quaternion, rotation_z
 
 __all__ = ["HingedObject"]
 
+#: PyBullet's joint and the kernels' joint kind (``_pose_kernels``) of each joint type.
+_JOINTS = {
+    "revolute": (p.JOINT_REVOLUTE, _pose_kernels.REVOLUTE),
+    "prismatic": (p.JOINT_PRISMATIC, _pose_kernels.PRISMATIC),
+    "fixed": (p.JOINT_FIXED, _pose_kernels.FIXED),
+}
+
 
 class HingedObject:
-    """Two links and one revolute joint, from an :class:`ObjectConfig`.
+    """Two links and one joint (revolute, prismatic or fixed), from an :class:`ObjectConfig`.
+
+    The joint's coordinate is its angle (rad) or its travel (m); the code calls both the
+    joint angle.
 
     Args:
         world: the world to build in.
         config: geometry, joint and friction parameters.
-        joint_angle: initial joint angle, rad.
+        joint_angle: initial joint coordinate, rad or m (0 for a fixed joint).
     """
 
     def __init__(self, world: World, config: ObjectConfig, joint_angle: float = 0.0) -> None:
         self.world = world
         self.config = config
+        self.joint_type = config.joint_type
+        joint_type, kind = _JOINTS[config.joint_type]
         self._cid = world.client_id
         cid = self._cid
         self.hinge_rotation = config.hinge_rotation()
@@ -86,30 +101,32 @@ class HingedObject:
             linkInertialFramePositions=[self.free_center_local.tolist()],
             linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]],
             linkParentIndices=[0],
-            linkJointTypes=[p.JOINT_REVOLUTE],
+            linkJointTypes=[joint_type],
             linkJointAxis=[[0.0, 0.0, 1.0]],
             physicsClientId=cid,
         )
         for link in (-1, 0):
             p.setCollisionFilterGroupMask(self.body_id, link, 0, 0, physicsClientId=cid)
-        p.changeDynamics(
-            self.body_id,
-            0,
-            linearDamping=0.0,
-            angularDamping=0.0,
-            jointDamping=config.damping,
-            jointLowerLimit=config.lower_limit,
-            jointUpperLimit=config.upper_limit,
-            physicsClientId=cid,
-        )
-        p.setJointMotorControl2(
-            self.body_id,
-            0,
-            p.VELOCITY_CONTROL,
-            targetVelocity=0.0,
-            force=config.holding_torque,
-            physicsClientId=cid,
-        )
+        self.moves = config.joint_type != "fixed"
+        if self.moves:
+            p.changeDynamics(
+                self.body_id,
+                0,
+                linearDamping=0.0,
+                angularDamping=0.0,
+                jointDamping=config.damping,
+                jointLowerLimit=config.lower_limit,
+                jointUpperLimit=config.upper_limit,
+                physicsClientId=cid,
+            )
+            p.setJointMotorControl2(
+                self.body_id,
+                0,
+                p.VELOCITY_CONTROL,
+                targetVelocity=0.0,
+                force=config.holding_torque,
+                physicsClientId=cid,
+            )
         self.free_box = RoundedBox(
             self.free_half,
             config.edge_radius,
@@ -126,16 +143,29 @@ class HingedObject:
             body_id=self.body_id,
             link=-1,
         )
-        #: (5, 3) the free link for the compiled kernels: ``hinge_rotation`` (rows 0-2), the
-        #: pin, the free box's centre in the link frame (``_pose_kernels.link_pose``).
-        self.link = np.concatenate([self.hinge_rotation, [self.pin, self.free_center_local]])
+        #: (6, 3) the free link for the compiled kernels: ``hinge_rotation`` (rows 0-2), the
+        #: pin, the free box's centre in the link frame, the joint's kind in row 5, column 0
+        #: (``_pose_kernels.joint_frame``).
+        self.link = np.concatenate(
+            [self.hinge_rotation, [self.pin, self.free_center_local, [kind, 0.0, 0.0]]]
+        )
+        #: Largest motion of a point of the free box per unit of the joint's coordinate: its
+        #: largest distance from the pin (m/rad), 1 for a slide, 0 for a fixed joint.
+        self.reach = {
+            "revolute": float(np.linalg.norm(np.abs(self.free_center_local) + self.free_half)),
+            "prismatic": 1.0,
+            "fixed": 0.0,
+        }[config.joint_type]
         #: (8,) the joint's dynamics for ``_step_kernels.hinge_step``: the link's inertia
         #: about the axis as PyBullet has it (its inertia about the centre of mass, which is
-        #: the box's centre, plus m r^2), damping, holding torque, limits, weight.
+        #: the box's centre, plus m r^2; a slide's: its mass), damping, holding torque,
+        #: limits, weight.
         mass, _, inertia, com = p.getDynamicsInfo(self.body_id, 0, physicsClientId=cid)[:4]
         self.hinge = np.array(
             [
-                inertia[2] + mass * (com[0] ** 2 + com[1] ** 2),
+                mass
+                if config.joint_type == "prismatic"
+                else inertia[2] + mass * (com[0] ** 2 + com[1] ** 2),
                 config.damping,
                 config.holding_torque,
                 config.lower_limit,
@@ -150,10 +180,16 @@ class HingedObject:
     # --- state -------------------------------------------------------------------------
 
     def reset(self, joint_angle: float) -> None:
-        """Teleport the joint to ``joint_angle`` (rad) at rest."""
+        """Teleport the joint to ``joint_angle`` (rad, or m for a slide) at rest."""
+        if not self.moves:
+            if joint_angle != 0.0:
+                raise ValueError(f"a fixed joint's coordinate is 0, got {joint_angle!r}")
+            self.sync()
+            return
         lo, hi = self.config.lower_limit, self.config.upper_limit
         if not lo <= joint_angle <= hi:
-            raise ValueError(f"joint_angle must be in [{lo}, {hi}] rad, got {joint_angle!r}")
+            unit = "m" if self.joint_type == "prismatic" else "rad"
+            raise ValueError(f"joint_angle must be in [{lo}, {hi}] {unit}, got {joint_angle!r}")
         p.resetJointState(self.body_id, 0, float(joint_angle), 0.0, physicsClientId=self._cid)
         self.sync()
 
@@ -186,22 +222,33 @@ class HingedObject:
 
     @property
     def joint_angle(self) -> float:
-        """Joint angle, rad (0: free link along ``link_direction``)."""
+        """Joint coordinate: angle, rad (0: free link along ``link_direction``), or travel, m."""
         return float(self._angle)
 
     @property
     def joint_velocity(self) -> float:
-        """Joint velocity, rad/s."""
+        """Joint velocity, rad/s or m/s."""
         return float(self._velocity)
 
     @property
     def link_rotation(self) -> np.ndarray:
         """Free-link frame axes as columns, world frame."""
+        if self.joint_type != "revolute":
+            return self.hinge_rotation.copy()
         return self.hinge_rotation @ rotation_z(self._angle)
 
     @property
+    def link_offset(self) -> np.ndarray:
+        """The free-link frame's origin less the pin, world frame, m: the travel along the
+        direction of a slide, else 0."""
+        if self.joint_type != "prismatic":
+            return np.zeros(3)
+        return self._angle * self.axis
+
+    @property
     def true_axis(self) -> tuple[np.ndarray, np.ndarray]:
-        """(pin centre point, unit axis direction), world frame."""
+        """(pin centre point, unit axis direction), world frame: a slide's reference point and
+        direction of travel; a fixed joint's the config's, which nothing moves about."""
         return self.pin.copy(), self.axis.copy()
 
     @property
@@ -213,7 +260,7 @@ class HingedObject:
         """
         r = self.link_rotation
         local = np.array([0.0, self.config.edge_side * self.free_half[1], self.free_half[2]])
-        return self.pin + r @ local, r[:, 0].copy()
+        return self.pin + self.link_offset + r @ local, r[:, 0].copy()
 
     @property
     def primitives(self) -> list[RoundedBox]:

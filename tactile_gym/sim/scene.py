@@ -1,4 +1,4 @@
-"""The probing scene: table, hinged object, soft fingertip on an F/T sensor.
+"""The probing scene: table, jointed object, soft fingertip on an F/T sensor.
 
 Frames (docs/design.md 2):
 
@@ -235,7 +235,7 @@ class ProbeScene:
         # The free link is the one primitive that moves, and takes the skin's reaction.
         self._free = next(i for i, prim in enumerate(self._prims) if prim is obj.free_box)
         self._link = obj.link
-        self._free_reach = float(np.linalg.norm(np.abs(obj.free_center_local) + obj.free_half))
+        self._free_reach = obj.reach
         self._selection: Selection | None = None
         self._tip_moved = 0.0  # bound on node motion since the selection, m
         self._q_sel = 0.0  # joint angle at the selection, rad
@@ -598,12 +598,18 @@ class ProbeScene:
 
     @property
     def joint_angle(self) -> float:
-        """Joint angle of the free link, rad."""
+        """Joint coordinate of the free link: its angle, rad, or a slide's travel, m."""
         return self._object.joint_angle
 
     @property
+    def true_joint_type(self) -> str:
+        """The object's joint: ``"revolute"``, ``"prismatic"`` or ``"fixed"``."""
+        return self._object.joint_type
+
+    @property
     def true_axis(self) -> tuple[np.ndarray, np.ndarray]:
-        """(hinge pin centre, unit axis direction), world frame; fresh copies."""
+        """(hinge pin centre, unit axis direction), world frame; fresh copies. A slide's are
+        its reference point and direction of travel (``true_joint_type``)."""
         return self._object.true_axis
 
     @property
