@@ -84,6 +84,7 @@ import numpy as np
 from tactile_gym.estimation import fit_axis_planar, fit_axis_simple
 from tactile_gym.sensing import (
     TARE_SAMPLES,
+    HoldRule,
     PressConfig,
     PressController,
     Tare,
@@ -308,7 +309,7 @@ def read_on(scene: ProbeScene, pressed: Pressed, rng: np.random.Generator, total
     """Hold a press still and read on until ``total`` readings are averaged in all."""
     if total <= pressed.readings or not pressed.touched:
         return pressed
-    pressed.press.extend(total - pressed.readings)
+    pressed.press.extend(HoldRule(total))
     return _read_pressed(scene, pressed, rng)
 
 
