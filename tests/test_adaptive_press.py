@@ -18,6 +18,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
+from tactile_gym.perception import GateConfig, MeasurementGate
+from tactile_gym.perception.gate import force_change
 from tactile_gym.sensing import (
     FingertipGeometry,
     GradientEstimate,
@@ -251,3 +253,57 @@ def test_a_press_holds_until_its_rule_is_met_and_can_be_extended():
 def test_press_config_validation_of_the_adaptive_fields(kwargs, match):
     with pytest.raises(ValueError, match=match):
         PressConfig(**kwargs)
+
+
+# --- the gate measures on the same rule ------------------------------------------------------
+
+DOWN_POSE = np.diag([1.0, -1.0, -1.0])  # sensor z pointing down, sensor to world
+
+
+def gate_stream(gate: MeasurementGate, wrench: np.ndarray, still: int) -> int | None:
+    """Offer a straight press (1 mm down from free air, then ``still`` readings of ``wrench``
+    held still); return on which still reading the gate judged it (accepted or refused)."""
+    top = np.array([0.05, 0.1, 0.1])
+    free = np.zeros(6)
+    gate.offer(free, DOWN_POSE, top, TOUCH.sense(free, DOWN_POSE, top))
+    position = top - [0.0, 0.0, 0.001]
+    gate.offer(wrench, DOWN_POSE, position, TOUCH.sense(wrench, DOWN_POSE, position))  # moved
+    judged = gate.refusals
+    for k in range(1, still + 1):
+        touch = TOUCH.sense(wrench, DOWN_POSE, position)
+        if gate.offer(wrench, DOWN_POSE, position, touch) or gate.refusals > judged:
+            return k
+    return None
+
+
+def test_the_gate_measures_a_still_press_when_its_hold_rule_is_met():
+    wrench = tilted_wrench(10.0)
+    one = TOUCH.sense(wrench, np.eye(3), np.zeros(3)).edge_std
+    # v2: exactly ``dwell`` readings.
+    assert gate_stream(MeasurementGate(GateConfig(), TOUCH), wrench, 30) == GateConfig().dwell
+    # The adaptive rule: when sqrt(n) first reaches 2.9, or at the budget.
+    config = GateConfig(dwell=4, edge_std_target=one / 2.9, dwell_budget=20)
+    gate = MeasurementGate(config, TOUCH)
+    assert gate_stream(gate, wrench, 30) == 9 and len(gate.last_rule) == 0  # accepted
+    flat = MeasurementGate(config, TOUCH)
+    assert gate_stream(flat, tilted_wrench(0.0), 30) == 20
+    assert flat.last_rule == "observable"
+    assert config.hold_rule == HoldRule(4, one / 2.9, 20)
+
+
+def test_the_trend_of_a_steady_force_stays_small_however_long_the_window():
+    assert force_change([5.0, 5.1, 5.2, 5.3]) == pytest.approx(0.3)
+    assert force_change([5.0]) == 0.0
+    rng = np.random.default_rng(0)
+    for n in (6, 20, 100):
+        windows = 5.0 + 0.08 * rng.standard_normal((4000, n))
+        changes = np.array([force_change(w) for w in windows])
+        # A straight-line fit's change has std sigma sqrt(12 (n - 1) / (n (n + 1))) ...
+        expected = 0.08 * math.sqrt(12.0 * (n - 1) / (n * (n + 1)))
+        assert np.sqrt(np.mean(changes**2)) == pytest.approx(expected, rel=0.05)
+        # ... while the peak-to-peak spread grows with n (0.08 N of noise: 4x the default).
+        assert np.ptp(windows, axis=1).mean() > 2.5 * 0.08
+    with pytest.raises(ValueError, match="gate.steady_rule"):
+        GateConfig(steady_rule="smooth")
+    with pytest.raises(ValueError, match="gate.dwell_budget"):
+        GateConfig(dwell=8, edge_std_target=0.01, dwell_budget=4)
