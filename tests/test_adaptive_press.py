@@ -307,3 +307,53 @@ def test_the_trend_of_a_steady_force_stays_small_however_long_the_window():
         GateConfig(steady_rule="smooth")
     with pytest.raises(ValueError, match="gate.dwell_budget"):
         GateConfig(dwell=8, edge_std_target=0.01, dwell_budget=4)
+
+
+# --- the env: the skills hold on the gate's rule ----------------------------------------------
+
+#: The keywords that turn the adaptive press on in an env (``benchmarks/adaptive_press.py``).
+ADAPTIVE_ENV = {
+    "gate": {"edge_std_target": math.radians(1.0), "dwell_budget": 24, "steady_rule": "trend"},
+    "measure_gradient": True,
+}
+
+
+@pytest.mark.parametrize("skin", [1.0, 2.0])
+def test_the_skill_never_lifts_before_the_gates_window_is_complete(monkeypatch, skin):
+    import gymnasium as gym
+
+    import tactile_gym  # noqa: F401 - registers the envs
+    from agents.scripted import scripted_policy
+    from tactile_gym.envs import skills
+
+    kwargs = {**ADAPTIVE_ENV, "skin": {"normal_stiffness": skin * K_N}, "max_steps": 150}
+    env = gym.make("tactile_gym/HingeProbe-v2", **kwargs)
+    pipeline = env.unwrapped.pipeline
+    holds = []
+    move = skills.Press._move
+
+    def watched(press, reading):
+        if not hasattr(press, "judged"):
+            press.judged = len(pipeline.presses)
+        out = move(press, reading)
+        if out is None and press.press.phase == "done" and press.press.rule.most > 0:
+            holds.append((press.judged, len(pipeline.presses), press.press.readings))
+        return out
+
+    monkeypatch.setattr(skills.Press, "_move", watched)
+    policy = scripted_policy(env)
+    for seed in (0, 1):
+        obs, _ = env.reset(seed=seed)
+        policy.reset()
+        done = False
+        while not done:
+            obs, _, terminated, truncated, _ = env.step(policy.get_action(obs))
+            done = terminated or truncated
+    env.close()
+    assert len(holds) >= 4
+    # Every probe that held was judged by the gate (accepted or refused) before it let go.
+    assert all(after == before + 1 for before, after, _ in holds)
+    # It held as long as the rule asked: at least the gate's dwell, at most its budget.
+    readings = [n for *_, n in holds]
+    assert min(readings) >= GateConfig().dwell and max(readings) <= 24
+    assert len(pipeline.measurements) >= 1
