@@ -29,28 +29,30 @@ trial and never told. Everything the finger does follows from F/T readings:
 * **Press** (:func:`press`): the shared press (``tactile_gym.sensing.PressController``, the
   env's too), straight down (world -z) at a chosen point, until the *noisy* (compensated)
   reading reaches 5 N, stepping by the force gradient it measures (``docs/design.md`` 5.2);
-  then the finger holds still for ``SEARCH_READINGS`` readings, and the pipeline's
+  then the finger holds still until ``SEARCH_HOLD`` is met, and the pipeline's
   ``TouchSensor`` reads their mean (the indentation-corrected contact point, the skin normal
   and the edge direction, with the noise std divided by sqrt(n) and the env's contact shape,
   ``docs/design.md`` 4.5) to steer the search. If the finger sinks ``MISS_DEPTH`` below the
   grip's nominal top without touching, there is no grip under it.
-* **Tare**: before each press, right after the lift to the travel height
-  (``TRAVEL_CLEARANCE`` above the grip's nominal top) and before moving over, the finger
-  holds still and tares the sensor on ``TARE_SAMPLES`` samples (a ``tare`` event of the
-  stream). ``--no-tare`` skips it: the readings, less the fingertip's configured weight
-  (pointing down throughout), keep the sensor's offset and drift.
+* **Tare**: before each press, after the lift to the travel height (``TRAVEL_CLEARANCE`` above
+  the grip's nominal top) and the move over the press point, the finger holds still and
+  tares the sensor on ``TARE_SAMPLES`` samples (a ``tare`` event of the stream): the later
+  the tare, the less the sensor drifts before the press is read. ``--no-tare`` skips it: the
+  readings, less the fingertip's configured weight (pointing down throughout), keep the
+  sensor's offset and drift.
 * **Edge search** (:func:`find_edge`): presses along a line across the edge. A press whose
   patch the edge truncates shifts the contact toward the face's interior (the skin normal
   leans that way) and tilts the force off the normal; a press on the open face puts the
   contact right under the sphere centre; a press past the edge rests on the corner. Each
   press moves the next one so that the sphere centre lands ``CENTRE_PAST_CONTACT`` beyond
   the contact point just measured, measured across the edge (the edge direction from the
-  press, once observable, sets "across"). That rule has a fixed point about 1 mm past the
-  edge (force tilt ~10 deg), where the edge cuts the patch; it takes ``SEARCH_GAIN`` of the
+  press, once observable, sets "across"). That rule has a fixed point about 1.2 mm past the
+  edge (force tilt ~10.5 deg), where the edge cuts the patch; it takes ``SEARCH_GAIN`` of the
   step, which makes it converge in one or two presses near the edge and walk 4 mm per press
   over the open face. The search stops when the next step would be shorter than
-  ``CONVERGED_STEP``; that press holds on until the gate's hold rule measures it
-  (``MEASURE_READINGS`` readings in all), and what the gate accepts is the measurement.
+  ``CONVERGED_STEP``; that press holds on until the gate's hold rule measures it (the
+  predicted edge error of the mean reaching a target, within a budget: ``HoldRule``), and
+  what the gate accepts is the measurement.
 * **Hand** (:func:`turn_by_hand`, the only code besides the error and the truth helpers
   that reads the simulator's ground truth): sets the joint to the current angle plus the
   commanded turn while the finger is lifted. The hand holds the grip throughout (the joint's
@@ -104,10 +106,17 @@ from tactile_gym.sensing import (
     PressConfig,
     PressController,
     Touch,
+    predicted_edge_std,
     run_press,
 )
 from tactile_gym.sim import ProbeScene
-from tactile_gym.spatial import matrix_to_quaternion, quaternion_to_matrix, rotvec_to_matrix, z_to
+from tactile_gym.spatial import (
+    matrix_to_quaternion,
+    matrix_to_rotvec,
+    quaternion_to_matrix,
+    rotvec_to_matrix,
+    z_to,
+)
 
 from .cli import make_parser, progress_bar, run_main
 from .paper_report import markdown_table, plot
@@ -128,23 +137,43 @@ CASES = ("slides", "fixed")
 
 TRAVEL_CLEARANCE = 0.0015  # m, sphere bottom over the grip's nominal top while travelling
 MISS_DEPTH = 0.004  # m below the nominal top with no touch: no grip under the finger
-SEARCH_READINGS = 4  # readings averaged for a search press (0.2 s at 20 Hz)
+#: A search press holds until the predicted edge error of its mean is 2 deg (4 readings,
+#: 0.2 s at 20 Hz, with the configured noise), within 15: enough to steer by, and on a
+#: noisier sensor than configured the search does not dither on noisy contact points.
+SEARCH_HOLD = HoldRule(4, math.radians(2.0), 15)
 #: The press of the searches: the shared press to its 5 N (the paper's) on the noisy reading,
-#: in steps of at most 0.3 mm by the force gradient it measures; no touch from the travel
+#: in steps of at most 0.3 mm by the force gradient it measures, approaching in free air at
+#: 0.6 mm a step (a touch within it loads the skin by at most about 1 N on the configured
+#: skin, 2 N on one twice as stiff: the press steps back from there), so that the press is
+#: read soon after its tare, then holding by ``SEARCH_HOLD``; no touch from the travel
 #: height to ``MISS_DEPTH`` below the grip's top means no grip under the finger.
 PRESS = PressConfig(
     max_step=0.0003,
+    approach_step=0.0006,
     measure_gradient=True,
-    dwell=SEARCH_READINGS,
+    dwell=SEARCH_HOLD.least,
+    edge_std_target=SEARCH_HOLD.target,
+    dwell_budget=SEARCH_HOLD.budget,
     reach=TRAVEL_CLEARANCE + MISS_DEPTH,
 )
-MEASURE_READINGS = 20  # readings averaged for the measurement press (1 s at 20 Hz)
-#: The gate of the protocol's pipeline: it measures the press the search ends on once it has
-#: held ``MEASURE_READINGS`` readings (a search press holds fewer, so is never measured). No
-#: probed-edge distance is known, and the paper's sliding contacts creep toward the hinge, so
-#: none is refused for nearing it.
-GATE = GateConfig(dwell=MEASURE_READINGS, min_hinge_distance=0.0)
-CENTRE_PAST_CONTACT = 0.0026  # m, sphere centre beyond the contact: ~1 mm past the edge
+#: The gate of the protocol's pipeline. It measures the press the search ends on once the
+#: predicted edge error of its mean reaches ``edge_std_target`` (about 20 readings, 1 s at
+#: 20 Hz, with the configured noise; longer where the readings scatter more), after at least
+#: ``dwell`` readings (more than a search press holds, so none is measured) and at most
+#: ``dwell_budget``; the force's steadiness is judged on its trend, which a long window of a
+#: noisy sensor does not inflate (``docs/design.md`` 5.2). No probed-edge distance is known,
+#: and the paper's sliding contacts creep toward the hinge, so none is refused for nearing it.
+GATE = GateConfig(
+    dwell=SEARCH_HOLD.budget + 1,
+    edge_std_target=math.radians(0.7),
+    dwell_budget=100,
+    steady_rule="trend",
+    min_hinge_distance=0.0,
+)
+#: m, sphere centre beyond the contact: ~1.2 mm past the edge, where the force tilts about
+#: 10.5 deg (the edge's error from the sensor's noise and drift goes as 1 / sin(tilt)); much
+#: further out the contact point stops following the finger and the search dithers.
+CENTRE_PAST_CONTACT = 0.0030
 SEARCH_GAIN = 1.5  # the contact moves ~0.4 mm per mm of finger near the edge: 1 / (1 - 0.4)
 CONVERGED_STEP = 0.0003  # m
 TRUSTED_EDGE_STD = math.radians(5.0)  # rad, an edge this sure sets the search's direction
@@ -159,6 +188,11 @@ MAX_PRESSES = 8  # per search
 START_ALONG = {"slides": 0.060, "fixed": 0.035}
 START_ANGLE_RANGE = math.radians(10.0)  # rad, the grip's true start angle, +- (never told)
 DOWN_ROTATION = z_to([0.0, 0.0, -1.0])  # finger axis pointing down, sensor to world
+#: The finger's largest move and turn per control step between presses: 0.2 m/s and
+#: 1.7 rad/s at 20 Hz, below what the pipeline takes for a jump in the stream (the defaults
+#: of ``StreamLimits``).
+TRAVEL_STEP = 0.010  # m
+TURN_STEP = math.radians(5.0)  # rad
 DOWN = matrix_to_quaternion(DOWN_ROTATION)
 
 
@@ -198,10 +232,21 @@ class Finger:
         return self.scene.sensor_to_world_point(self.scene.geometry.sphere_center)
 
     def step(self, centre: np.ndarray, tare: bool = False) -> Perceived:
-        """One control step toward a sphere centre at ``centre`` (world, m), then one reading
-        (a tare taken on it with ``tare``: hold still in free air)."""
-        target = np.asarray(centre, dtype=float) + [0.0, 0.0, self.scene.geometry.cylinder_length]
-        self.scene.control_step(target, DOWN)
+        """One control step toward a sphere centre at ``centre`` (world, m) and pointing down,
+        at most ``TRAVEL_STEP`` and ``TURN_STEP`` of it, then one reading (a tare taken on it
+        with ``tare``: hold still in free air)."""
+        scene = self.scene
+        target = np.asarray(centre, dtype=float) + [0.0, 0.0, scene.geometry.cylinder_length]
+        move = target - scene.fingertip_position
+        distance = float(np.linalg.norm(move))
+        if distance > TRAVEL_STEP:
+            target = scene.fingertip_position + move * (TRAVEL_STEP / distance)
+        rotation = DOWN_ROTATION
+        turn = matrix_to_rotvec(DOWN_ROTATION @ scene.fingertip_rotation.T)
+        angle = float(np.linalg.norm(turn))
+        if angle > TURN_STEP:
+            rotation = rotvec_to_matrix(turn * (TURN_STEP / angle)) @ scene.fingertip_rotation
+        scene.control_step(target, rotation)
         self.perceived = self.pipeline.step(self._sample(tare))
         return self.perceived
 
@@ -312,9 +357,12 @@ class Trial:
 
 
 def _move(finger: Finger, centre: np.ndarray) -> None:
-    """Move the finger (pointing down) until its sphere centre is at ``centre``, world, m."""
+    """Move the finger until its sphere centre is at ``centre`` (world, m) and it points down
+    (after the hand carried it round, it turns back first: a press while it turns drags the
+    skin, and the gate refuses it)."""
     for _ in range(100):
-        if np.linalg.norm(finger.centre - centre) < 1e-9:
+        turned = np.abs(finger.scene.fingertip_rotation - DOWN_ROTATION).max()
+        if np.linalg.norm(finger.centre - centre) < 1e-9 and turned < 1e-9:
             return
         finger.step(centre)
     raise RuntimeError(f"the finger did not reach {centre} m in 100 control steps")
@@ -359,7 +407,7 @@ def press(finger: Finger, xy: np.ndarray, nominal: NominalLayout, tare: bool = T
     """Press straight down at world x-y ``xy`` with the shared press (``PRESS``).
 
     The finger travels at the travel height to above ``xy`` and presses down until the noisy
-    reading shows the press's force, then holds still for ``SEARCH_READINGS`` readings. It
+    reading shows the press's force, then holds still until ``SEARCH_HOLD`` is met. It
     never moves sideways once it touches. It stays pressed on return (``read_on`` reads
     more, then ``lift``); after a miss it is already lifted.
 
@@ -370,10 +418,10 @@ def press(finger: Finger, xy: np.ndarray, nominal: NominalLayout, tare: bool = T
         tare: tare in free air after the lift (module docstring); False: never.
     """
     lift(finger, nominal)
-    if tare:
-        tare_here(finger)
     centre = np.r_[np.asarray(xy, dtype=float), _travel_height(finger.scene, nominal)]
     _move(finger, centre)
+    if tare:
+        tare_here(finger)
     controller = PressController(PRESS, finger.pipeline.sensor)
     pressed = _read_pressed(finger, Pressed(centre, controller, None))
     if not pressed.touched:
@@ -409,7 +457,7 @@ def find_edge(
     """Find the probed edge by touch and measure there.
 
     Presses along a line across the edge, starting at ``start``, until a press sits about
-    1 mm past the edge (see the module docstring for the rule). That press then holds on
+    1.2 mm past the edge (see the module docstring for the rule). That press then holds on
     until the pipeline's gate measures it (its ``HoldRule``) and is returned, the finger
     still pressed, with the measurement if the gate accepted it.
 
@@ -430,7 +478,7 @@ def find_edge(
         pressed = press(finger, xy, nominal, tare)
         if pressed.touched and pressed.touch.valid:
             misses = 0
-            if pressed.touch.edge_std < TRUSTED_EDGE_STD:
+            if predicted_edge_std(finger.pipeline.sensor, pressed.press.held) < TRUSTED_EDGE_STD:
                 outward = _across(pressed.edge[:2], outward)
             step = SEARCH_GAIN * ((pressed.point[:2] - xy) @ outward + CENTRE_PAST_CONTACT)
             if abs(step) < CONVERGED_STEP or k == MAX_PRESSES:
