@@ -43,17 +43,26 @@ setup: $(STAMP)
 
 # The CPU index first, without retries (where it cannot be reached, as behind a proxy or
 # with a local index only, pip fails in seconds), then whatever index pip is configured with.
+# Each stage prints one line as it starts and one with its time as it ends (pip itself is
+# quiet: its progress bars would bury the rest).
 $(STAMP): pyproject.toml
-	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --retries 0 --timeout 15 $(TORCH) \
+	@echo "set-up 1/3: a virtualenv in $(VENV)"
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	@echo "set-up 2/3: $(TORCH), the CPU build (about 200 MB the first time)"; start=$$(date +%s); \
+		{ $(BIN)/python -m pip install --quiet --retries 0 --timeout 15 $(TORCH) \
 		--index-url $(TORCH_CPU_INDEX) \
-		|| $(BIN)/python -m pip install --quiet $(TORCH)
-	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS)]"
-	touch $@
+		|| $(BIN)/python -m pip install --quiet $(TORCH); } && \
+		echo "  took $$(( $$(date +%s) - start )) s"
+	@echo "set-up 3/3: the package, editable, with [$(EXTRAS)]"; start=$$(date +%s); \
+		$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS)]" && \
+		echo "  took $$(( $$(date +%s) - start )) s"
+	@touch $@
 
 $(DOCS_STAMP): $(STAMP)
-	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS),docs]"
-	touch $@
+	@echo "set-up: the [docs] extra"; start=$$(date +%s); \
+		$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS),docs]" && \
+		echo "  took $$(( $$(date +%s) - start )) s"
+	@touch $@
 
 clean:
 	rm -rf $(VENV)

@@ -22,9 +22,31 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from .policies import deadband
 from .runs import save_statistics, statistics_path
 
-__all__ = ["Checkpoints", "FixedSeedVecEnv", "continue_evaluations", "fixed_seed_evaluation"]
+__all__ = [
+    "ActionDeadband",
+    "Checkpoints",
+    "FixedSeedVecEnv",
+    "TRUTH_INFO",
+    "WithoutTruth",
+    "continue_evaluations",
+    "fixed_seed_evaluation",
+]
+
+#: The entries of an env's ``info`` that come from the simulator's truth (the true errors and
+#: success, the true axis and joint angle, the noise-free contact force): what a truth-free
+#: run's training loop never sees (:class:`WithoutTruth`).
+TRUTH_INFO = (
+    "is_success",
+    "position_error",
+    "angle_error",
+    "true_axis_point",
+    "true_axis_direction",
+    "joint_angle",
+    "max_force",
+)
 
 
 class FixedSeedVecEnv(VecEnvWrapper):
@@ -62,6 +84,41 @@ class FixedSeedVecEnv(VecEnvWrapper):
             # The inner env has already reset itself unseeded: start the next seed instead
             # (the ended episode's last observation stays in the info).
             obs = self._reset_to(self.episode + 1)
+        return obs, rewards, dones, infos
+
+
+class ActionDeadband(VecEnvWrapper):
+    """A ``VecEnv`` that executes every action component smaller than ``width`` in magnitude
+    as 0 (``agents.policies.deadband``): the algorithm sees the deadband as part of the env,
+    and a saved model acts through the same one (``agents.policies.ModelPolicy``)."""
+
+    def __init__(self, venv: VecEnv, width: float) -> None:
+        super().__init__(venv)
+        self.width = float(width)
+
+    def reset(self):
+        return self.venv.reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self.venv.step_async(deadband(actions, self.width))
+
+    def step_wait(self):
+        return self.venv.step_wait()
+
+
+class WithoutTruth(VecEnvWrapper):
+    """A ``VecEnv`` whose infos lack the truth (:data:`TRUTH_INFO`): a truth-free run wraps
+    its training and evaluation envs in it, so that nothing SB3 does with infos (its success
+    rates, the evaluation's logs) reads the truth either."""
+
+    def reset(self):
+        return self.venv.reset()
+
+    def step_wait(self):
+        obs, rewards, dones, infos = self.venv.step_wait()
+        for info in infos:
+            for key in TRUTH_INFO:
+                info.pop(key, None)
         return obs, rewards, dones, infos
 
 

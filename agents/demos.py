@@ -1,205 +1,27 @@
-"""Record the scripted policy's episodes as demonstrations, and read them back
-(``docs/design.md``, Learning).
+"""Record the scripted policy's episodes as demonstrations (``docs/design.md``, Learning).
 
-    python -m agents.demos --env tactile_gym/HingeProbePrimitive-v1 --episodes 80 --out demos
+    python -m agents.demos --env tactile_gym/HingeProbePrimitive-v2 --episodes 80 --out demos
+    python -m agents.demos --env tactile_gym/HingeProbePrimitive-v2 --minari \
+        tactile_gym/HingeProbePrimitive-v2/scripted-v0
 
-runs :func:`agents.scripted.scripted_policy` (on the 6-D ids, the scripted skill executor) on
-episodes seeded ``DEMO_SEED + k`` (``agents.seeds``) and writes ``<out>/<Name>.npz``. The file
-is plain NumPy, one row per env step (:data:`STEP_FIELDS`) or per episode
-(:data:`EPISODE_FIELDS`):
-
-========================  ==========  =====================================================
-key                       shape       meaning
-========================  ==========  =====================================================
-``obs.<name>``            (T, ...)    dict observations, one array per key, before each step
-``obs``                   (T, n)      flat observations (``observation_mode="flat"``) instead
-``acts``                  (T, A)      the actions taken (the env's action space)
-``rews``                  (T,)        rewards
-``terminated``            (T,)        the step ended the episode as a failure
-``truncated``             (T,)        the step ended the episode by the step budget
-``episode``               (T,)        index of the step's episode
-``seeds``                 (E,)        reset seed of each episode
-``final_position_error``  (E,)        m, at the episode's end (``info``)
-``success``               (E,)        ``info["is_success"]`` at the end
-``meta``                  ()          JSON: env id, ``gym.make`` keywords, policy
-========================  ==========  =====================================================
-
-The ``imitation`` library's trajectory format was the alternative; its release pins
-Gymnasium 0.29 and Stable-Baselines3 2.2, below this package's (design notes, Learning).
+runs the scripted policy (on the 6-D ids, the scripted skill executor) on episodes seeded
+``DEMO_SEED + k`` (``agents.seeds``) and writes ``<out>/<Name>.npz``, whose format
+``agents.demonstrations`` documents; with ``--minari DATASET_ID`` it also writes them as a
+Minari dataset, which ``minari.load_dataset(DATASET_ID)`` reads (the ``[clients]`` extra
+installs Minari).
 """
 
 from __future__ import annotations
 
-import json
 import sys
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-import gymnasium as gym
-import numpy as np
-
-from .cli import KEY_VALUE_HELP, KNOWN_ENV_IDS, KeyValue, check_env_id, make_parser, run_main
+from .cli import KEY_VALUE_HELP, KNOWN_ENV_IDS, KeyValue, make_parser, run_main
+from .demonstrations import demos_path, record_demos, save_demos, save_minari
 from .seeds import DEMO_SEED
 
-__all__ = ["Demos", "EPISODE_FIELDS", "STEP_FIELDS", "load_demos", "record_demos", "save_demos"]
-
-#: Per-step arrays besides the observations.
-STEP_FIELDS = ("acts", "rews", "terminated", "truncated", "episode")
-#: Per-episode arrays.
-EPISODE_FIELDS = ("seeds", "final_position_error", "success")
-
-
-@dataclass
-class Demos:
-    """Demonstrations: per-step arrays (``T`` steps) and per-episode arrays (``E`` episodes).
-
-    Attributes:
-        obs: a dict of ``(T, ...)`` arrays (dict observations) or one ``(T, n)`` array.
-        acts: ``(T, A)`` actions.
-        rews: ``(T,)`` rewards.
-        terminated: ``(T,)`` failure ends.
-        truncated: ``(T,)`` step-budget ends.
-        episode: ``(T,)`` episode index of each step.
-        seeds: ``(E,)`` reset seeds.
-        final_position_error: ``(E,)`` final position errors, m.
-        success: ``(E,)`` final successes.
-        meta: env id, ``gym.make`` keywords, policy.
-    """
-
-    obs: dict[str, np.ndarray] | np.ndarray
-    acts: np.ndarray
-    rews: np.ndarray
-    terminated: np.ndarray
-    truncated: np.ndarray
-    episode: np.ndarray
-    seeds: np.ndarray
-    final_position_error: np.ndarray
-    success: np.ndarray
-    meta: dict[str, Any]
-
-    def __len__(self) -> int:
-        return len(self.acts)
-
-    def discounted_returns(self, gamma: float, rewards: np.ndarray | None = None) -> np.ndarray:
-        """``(T,)`` discounted return from each step to its episode's end (Monte Carlo,
-        nothing bootstrapped after a truncation) of ``rewards`` (default: ``rews``)."""
-        rewards = self.rews if rewards is None else rewards
-        out = np.zeros(len(rewards))
-        ahead = 0.0
-        for t in range(len(rewards) - 1, -1, -1):
-            last = t == len(rewards) - 1 or self.episode[t + 1] != self.episode[t]
-            ahead = rewards[t] + (0.0 if last else gamma * ahead)
-            out[t] = ahead
-        return out
-
-
-def record_demos(
-    env_id: str,
-    episodes: int,
-    first_seed: int = DEMO_SEED,
-    env_kwargs: dict[str, Any] | None = None,
-    progress: Callable[[int], None] | None = None,
-) -> Demos:
-    """The scripted policy's episodes seeded ``first_seed + k``.
-
-    Args:
-        env_id: the id.
-        episodes: how many.
-        first_seed: the first episode's seed.
-        env_kwargs: ``gym.make`` keywords.
-        progress: called with the number of episodes recorded after each one.
-
-    Raises:
-        ValueError: an unknown id or fewer than one episode.
-    """
-    from .scripted import scripted_policy
-
-    check_env_id("env_id", env_id)
-    if episodes < 1:
-        raise ValueError(f"episodes must be >= 1, got {episodes}")
-    env = gym.make(env_id, **(env_kwargs or {}))
-    policy = scripted_policy(env)
-    steps: dict[str, list] = {key: [] for key in ("obs", *STEP_FIELDS)}
-    seeds, errors, successes = [], [], []
-    try:
-        for k in range(episodes):
-            seed = first_seed + k
-            obs, info = env.reset(seed=seed)
-            env.action_space.seed(seed)
-            policy.reset()
-            terminated = truncated = False
-            while not (terminated or truncated):
-                action = policy.get_action(obs)
-                steps["obs"].append(obs)
-                obs, reward, terminated, truncated, info = env.step(action)
-                for key, value in zip(
-                    STEP_FIELDS, (action, reward, terminated, truncated, k), strict=True
-                ):
-                    steps[key].append(value)
-            seeds.append(seed)
-            errors.append(float(info["position_error"]))
-            successes.append(bool(info["is_success"]))
-            if progress is not None:
-                progress(k + 1)
-    finally:
-        env.close()
-    first = steps["obs"][0]
-    if isinstance(first, dict):
-        obs = {key: np.stack([o[key] for o in steps["obs"]]) for key in first}
-    else:
-        obs = np.stack(steps["obs"])
-    return Demos(
-        obs=obs,
-        acts=np.asarray(steps["acts"], dtype=np.float32),
-        rews=np.asarray(steps["rews"], dtype=float),
-        terminated=np.asarray(steps["terminated"], dtype=bool),
-        truncated=np.asarray(steps["truncated"], dtype=bool),
-        episode=np.asarray(steps["episode"], dtype=np.int64),
-        seeds=np.asarray(seeds, dtype=np.int64),
-        final_position_error=np.asarray(errors),
-        success=np.asarray(successes, dtype=bool),
-        meta={"env_id": env_id, "env_kwargs": dict(env_kwargs or {}), "policy": "scripted"},
-    )
-
-
-def save_demos(demos: Demos, path: str | Path) -> Path:
-    """Write ``demos`` to ``path`` (``.npz``) and return it."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if isinstance(demos.obs, dict):
-        obs = {f"obs.{key}": value for key, value in demos.obs.items()}
-    else:
-        obs = {"obs": demos.obs}
-    arrays = {key: getattr(demos, key) for key in (*STEP_FIELDS, *EPISODE_FIELDS)}
-    np.savez_compressed(path, **obs, **arrays, meta=np.array(json.dumps(demos.meta)))
-    return path
-
-
-def load_demos(path: str | Path) -> Demos:
-    """Demonstrations written by :func:`save_demos`.
-
-    Raises:
-        ValueError: a file that lacks one of the format's arrays, naming it.
-    """
-    with np.load(path) as data:
-        missing = [k for k in (*STEP_FIELDS, *EPISODE_FIELDS, "meta") if k not in data.files]
-        if missing:
-            raise ValueError(f"{path} is not a demonstrations file: it lacks {missing}")
-        if "obs" in data.files:
-            obs = data["obs"]
-        else:
-            obs = {k.removeprefix("obs."): data[k] for k in data.files if k.startswith("obs.")}
-        fields = {k: data[k] for k in (*STEP_FIELDS, *EPISODE_FIELDS)}
-        meta = json.loads(str(data["meta"]))
-    return Demos(obs=obs, meta=meta, **fields)
-
-
-def demos_path(out: str | Path, env_id: str) -> Path:
-    """``<out>/<Name>.npz`` for an id ``tactile_gym/<Name>``."""
-    return Path(out) / f"{env_id.split('/')[-1]}.npz"
+__all__: list[str] = []
 
 
 def main(argv: list[str] | None = None) -> Path:
@@ -210,6 +32,12 @@ def main(argv: list[str] | None = None) -> Path:
         "--seed", type=int, default=DEMO_SEED, help="seed of the first episode (then +1 each)"
     )
     parser.add_argument("--out", default="demos", help="folder of <Name>.npz")
+    parser.add_argument(
+        "--minari",
+        default=None,
+        metavar="DATASET_ID",
+        help="also write a Minari dataset of this id (e.g. tactile_gym/<Name>/scripted-v0)",
+    )
     parser.add_argument(
         "--env-kwargs",
         nargs="+",
@@ -222,6 +50,9 @@ def main(argv: list[str] | None = None) -> Path:
     start = time.monotonic()
     demos = record_demos(args.env, args.episodes, args.seed, args.env_kwargs)
     path = save_demos(demos, demos_path(args.out, args.env))
+    if args.minari is not None:
+        dataset = save_minari(demos, args.minari)
+        print(f"Minari dataset {args.minari}: {dataset.total_episodes} episodes")
     print(
         f"{args.episodes} episodes (seeds {args.seed}..{args.seed + args.episodes - 1}), "
         f"{len(demos)} steps, mean final error {1e3 * demos.final_position_error.mean():.2f} mm, "

@@ -42,18 +42,22 @@ class EpisodeRecord:
     success: bool
     n_measurements: int
     terminated: bool
+    episode_return: float = 0.0
 
 
 def run_episode(env: gym.Env, policy, seed: int) -> EpisodeRecord:
     """One episode from ``seed`` alone (env and action space); errors are recorded after
-    reset and after every step."""
+    reset and after every step, and the return (the env's rewards summed: truth-free where
+    the env's reward is) at the end."""
     obs, info = env.reset(seed=seed)
     env.action_space.seed(seed)
     policy.reset()
     position, angle = [_finite(info["position_error"])], [float(info["angle_error"])]
     terminated = truncated = False
+    episode_return = 0.0
     while not (terminated or truncated):
-        obs, _, terminated, truncated, info = env.step(policy.get_action(obs))
+        obs, reward, terminated, truncated, info = env.step(policy.get_action(obs))
+        episode_return += float(reward)
         position.append(_finite(info["position_error"]))
         angle.append(float(info["angle_error"]))
     return EpisodeRecord(
@@ -63,6 +67,7 @@ def run_episode(env: gym.Env, policy, seed: int) -> EpisodeRecord:
         success=bool(info["is_success"]),
         n_measurements=int(info["n_measurements"]),
         terminated=bool(terminated),
+        episode_return=episode_return,
     )
 
 
@@ -119,6 +124,7 @@ def summarize(records: list[EpisodeRecord]) -> dict[str, float]:
         "steps_to_5mm_mean": float(np.mean(reached)) if reached else float("nan"),
         "measurements_mean": float(np.mean([r.n_measurements for r in records])),
         "failure_rate": float(np.mean([r.terminated for r in records])),
+        "return_mean": float(np.mean([r.episode_return for r in records])),
     }
 
 

@@ -10,7 +10,7 @@ A policy is ``random``, ``scripted`` or the path of a stable-baselines3 model sa
 with its run's ``env_kwargs`` (from the run's ``config.yml``, or rl_zoo3's ``args.yml``,
 updated by ``--env-kwargs``) and with the ``VecNormalize`` statistics saved with that model
 (``agents.runs``). Loading a model runs none of its folder's code: old pickled statistics,
-rl_zoo3 runs and other algorithms than PPO and SAC need ``--trust-pickle``
+rl_zoo3 runs and algorithms other than those agents.train runs need ``--trust-pickle``
 (``docs/security.md``). Episode k of every policy uses seed ``seed + k`` for the env and the
 action space, so all policies meet the same objects and every episode depends on its seed
 alone: ``--workers`` spreads episodes over Ray workers with the same results as a serial
@@ -264,7 +264,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
         "--trust-pickle",
         action="store_true",
         help="let the models' files be unpickled, which can run code they hold (old "
-        "vecnormalize.pkl statistics, rl_zoo3 runs, algorithms other than PPO and SAC): only "
+        "vecnormalize.pkl statistics, rl_zoo3 runs, algorithms agents.train does not run): only "
         "for folders you trust; python -m agents.convert_models converts a trusted folder once",
     )
     parser.add_argument(

@@ -25,14 +25,34 @@ from .cli import require
 
 __all__ = [
     "ALGOS",
+    "CLASSES",
+    "ZOO_NAMES",
     "algo_kwargs",
     "algorithm_class",
     "check_hyperparameters",
     "load_hyperparameters",
     "resolve_config",
+    "TRUTH_FREE_TASK",
+    "load_deadband",
+    "truth_free_env_kwargs",
 ]
 
-ALGOS = ("ppo", "sac")
+#: The algorithms ``agents.train`` runs: stable-baselines3's PPO and SAC, and sb3-contrib's
+#: RecurrentPPO (an LSTM policy, for the 6-D ids: ``docs/design.md`` 12) and TQC.
+ALGOS = ("ppo", "sac", "recurrent_ppo", "tqc")
+#: Where rl-baselines3-zoo names an algorithm otherwise (``python -m rl_zoo3.train --algo``).
+ZOO_NAMES = {"recurrent_ppo": "ppo_lstm"}
+#: Each algorithm's class: (module, name).
+CLASSES = {
+    "ppo": ("stable_baselines3", "PPO"),
+    "sac": ("stable_baselines3", "SAC"),
+    "recurrent_ppo": ("sb3_contrib", "RecurrentPPO"),
+    "tqc": ("sb3_contrib", "TQC"),
+}
+#: The task settings of a run trained without the truth (``agents.train --truth-free``): the
+#: reward scores the estimator's predicted error, the workspace is centred on the start pose
+#: (``tactile_gym.envs.task``), so no reward, termination or selection reads the truth.
+TRUTH_FREE_TASK = {"reward_source": "predicted", "workspace_center": "start"}
 #: Keys of a training config that are not constructor arguments of the algorithm.
 RUN_KEYS = ("policy", "n_timesteps", "n_envs", "normalize", "env_kwargs")
 #: rl_zoo3 keys that agents.train does not implement (it would pass them to the algorithm).
@@ -80,7 +100,7 @@ def resolve_config(
     """The run's hyperparameters: the YAML, then the overrides, checked.
 
     Args:
-        algo: ``"ppo"`` or ``"sac"``.
+        algo: one of :data:`ALGOS`.
         env_id: a registered id.
         config_path: YAML of hyperparameters (name or path); defaults to the algo's.
         hyperparams: keys that replace the YAML's (like rl_zoo3's ``--hyperparams``).
@@ -125,12 +145,55 @@ def resolve_config(
     return config
 
 
+def truth_free_env_kwargs(env_kwargs: Mapping[str, Any] | None) -> dict:
+    """``env_kwargs`` with the ``task`` settings of :data:`TRUTH_FREE_TASK` merged into its
+    ``task`` mapping (the other task settings, such as ``prior_error``, kept).
+
+    Raises:
+        ValueError: a ``task`` that sets one of those keys to another value.
+    """
+    env_kwargs = copy.deepcopy(dict(env_kwargs or {}))
+    task = env_kwargs.get("task") or {}
+    if not isinstance(task, dict):
+        raise ValueError(f"env_kwargs task must be a mapping, got {task!r}")
+    for key, value in TRUTH_FREE_TASK.items():
+        if task.get(key, value) != value:
+            raise ValueError(
+                f"a truth-free run trains with task {key} {value!r}, got {task[key]!r}; "
+                "drop the setting or train without --truth-free"
+            )
+    env_kwargs["task"] = {**task, **TRUTH_FREE_TASK}
+    return env_kwargs
+
+
+def load_deadband(config_file: str | Path, env_id: str, width: float | None = None) -> float:
+    """The action deadband of ``env_id``: ``width`` if given, else the training config's
+    ``action_deadband`` table (keyed by env id beside the entries rl_zoo3 reads, as
+    ``warm_start``), else 0 (none). Action components smaller than it in magnitude are
+    executed as 0 (``agents.policies.deadband``).
+
+    Raises:
+        ValueError: a table that is not a mapping of env ids to numbers, or a width outside
+            [0, 1).
+    """
+    if width is None:
+        table = load_yaml(config_file).get("action_deadband") or {}
+        if not isinstance(table, dict):
+            raise ValueError(
+                f"action_deadband in {config_file} must map env ids to widths, got {table!r}"
+            )
+        width = table.get(env_id, 0.0)
+    if isinstance(width, bool) or not isinstance(width, (int, float)) or not 0 <= width < 1:
+        raise ValueError(f"action_deadband must be a number in [0, 1), got {width!r}")
+    return float(width)
+
+
 def algorithm_class(algo: str) -> type:
     """The stable-baselines3 class of ``algo``."""
     if algo not in ALGOS:
         raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
-    sb3 = require("stable_baselines3", "train")
-    return {"ppo": sb3.PPO, "sac": sb3.SAC}[algo]
+    module, name = CLASSES[algo]
+    return getattr(require(module, "train"), name)
 
 
 def check_hyperparameters(algo: str, config: Mapping[str, Any]) -> None:

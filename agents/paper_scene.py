@@ -138,11 +138,15 @@ def configured(condition: str, sensor: str = "realistic") -> tuple[SkinConfig, S
 
 
 def make_scene(
-    condition: str, sensor: str = "realistic", world: dict[str, float] | None = None
+    condition: str,
+    sensor: str = "realistic",
+    world: dict[str, float] | None = None,
+    physics: str = "v2",
 ) -> ProbeScene:
     """The paper's scene under a condition of ``CONDITIONS``, the hand holding the grip,
-    with a sensor of ``SENSORS`` (:func:`configured`), and the world factors of ``world``
-    (``WORLD_FACTORS``; :func:`parse_world`) applied to the scene alone."""
+    with a sensor of ``SENSORS`` (:func:`configured`), the world factors of ``world``
+    (``WORLD_FACTORS``; :func:`parse_world`) applied to the scene alone, and the contact step
+    ``physics`` (``tactile_gym.sim.scene.PHYSICS``)."""
     skin, sensor_config = configured(condition, sensor)
     world = world or {}
     unknown = set(world) - set(WORLD_FACTORS)
@@ -158,4 +162,6 @@ def make_scene(
         for factor, names in scaled.items()
         for name in names
     }
-    return ProbeScene(condition_object(condition), skin, replace(sensor_config, **changes))
+    return ProbeScene(
+        condition_object(condition), skin, replace(sensor_config, **changes), physics=physics
+    )

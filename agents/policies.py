@@ -33,6 +33,7 @@ __all__ = [
     "RandomPolicy",
     "check_model_env",
     "check_policies",
+    "deadband",
     "is_primitive_model_on_6d",
     "make_policy",
     "policy_labels",
@@ -40,6 +41,19 @@ __all__ = [
 ]
 
 BUILTIN_POLICIES = ("random", "scripted")
+
+
+def deadband(action: np.ndarray, width: float) -> np.ndarray:
+    """``action`` with every component smaller than ``width`` in magnitude set to 0.
+
+    A run trained with an action deadband (``agents.train --action-deadband``) acts through
+    it in training and here alike: the gate counts a control step as still only below 1 % of
+    a unit translation and 0.4 % of a unit rotation (``GateConfig.still_translation``,
+    ``still_rotation``), which a Gaussian policy's mean, let alone its samples, does not hit
+    by chance; the deadband makes holding still an action (``docs/design.md`` 12).
+    """
+    action = np.asarray(action)
+    return np.where(np.abs(action) < width, np.zeros_like(action), action)
 
 
 class RandomPolicy:
@@ -56,7 +70,9 @@ class RandomPolicy:
 
 
 class ModelPolicy:
-    """A stable-baselines3 model saved by ``agents.train``, with its own observation scaling.
+    """A stable-baselines3 model saved by ``agents.train``, with its own observation scaling
+    and its run's action deadband (:func:`deadband`); a recurrent one (``recurrent_ppo``)
+    carries its LSTM state from step to step, from zero at each :meth:`reset`.
 
     Args:
         path: the model's zip.
@@ -73,19 +89,25 @@ class ModelPolicy:
         from stable_baselines3.common.vec_env import DummyVecEnv
 
         saved = model_run(Path(path))
+        self.deadband = saved.action_deadband
         self.model = load_model(saved, env, trust_pickle=trust_pickle)
         self.normalizer = load_statistics(
             saved, DummyVecEnv([lambda: env]), trust_pickle=trust_pickle
         )
+        self.reset()
 
     def reset(self) -> None:
-        pass
+        self.state = None
+        self.episode_start = np.ones(1, dtype=bool)
 
     def get_action(self, obs) -> np.ndarray:
         if self.normalizer is not None:
             obs = self.normalizer.normalize_obs(obs)
-        action, _ = self.model.predict(obs, deterministic=True)
-        return action
+        action, self.state = self.model.predict(
+            obs, state=self.state, episode_start=self.episode_start, deterministic=True
+        )
+        self.episode_start = np.zeros(1, dtype=bool)
+        return deadband(action, self.deadband) if self.deadband else action
 
 
 class PrimitiveModelPolicy:
@@ -113,6 +135,7 @@ class PrimitiveModelPolicy:
 
     def reset(self) -> None:
         self.executor.reset()
+        self.inner.reset()
 
     def get_action(self, obs: dict) -> np.ndarray:
         if episode_started(obs):

@@ -110,6 +110,7 @@ from tactile_gym.sensing import (
     run_press,
 )
 from tactile_gym.sim import ProbeScene
+from tactile_gym.sim.scene import PHYSICS
 from tactile_gym.spatial import (
     matrix_to_quaternion,
     matrix_to_rotvec,
@@ -633,6 +634,7 @@ def reproduce(
     progress: Callable[[], None] | None = None,
     world: dict[str, float] | None = None,
     record: str | Path | None = None,
+    physics: str = "v2",
 ) -> dict:
     """Run every cell: ``trials`` trials per seed, each condition, scheme and contact case.
 
@@ -641,7 +643,8 @@ def reproduce(
     before each press) and ``world`` (factors of ``WORLD_FACTORS`` that change the world
     but not what the sensing is told) apply to every condition; ``progress`` is called after
     each trial. With ``record``, each trial is written there as a log with its truth sidecar
-    (:func:`from_logs` reads them back).
+    (:func:`from_logs` reads them back). ``physics`` is the contact step
+    (``tactile_gym.sim.scene.PHYSICS``).
 
     Returns:
         ``{key: cell}`` with key ``(scheme, case)`` for the nominal condition and
@@ -651,7 +654,7 @@ def reproduce(
     results = {}
     cell = 0
     for condition in conditions:
-        scene = make_scene(condition, sensor, world)
+        scene = make_scene(condition, sensor, world, physics)
         header = log_header(scene, condition, sensor)
         layout = NominalLayout.of(condition_object(condition))
         if nominal is not None and condition == "nominal":
@@ -772,6 +775,12 @@ def main(argv: list[str] | None = None) -> dict:
         help="make the table from the logs of an earlier --record-logs run alone (the run's"
         " options are then ignored)",
     )
+    parser.add_argument(
+        "--physics",
+        default="v2",
+        choices=PHYSICS,
+        help="the contact step: v2, exact, or v3, lean (default: v2)",
+    )
     parser.add_argument("--out", default="results/paper", help="folder for the table and plots")
     parser.add_argument("--no-plot", action="store_true", help="write the table only")
     args = parser.parse_args(argv)
@@ -820,6 +829,7 @@ def main(argv: list[str] | None = None) -> dict:
             progress=bar.update,
             world=world,
             record=args.record_logs,
+            physics=args.physics,
         )
     finally:
         bar.close()

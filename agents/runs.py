@@ -27,7 +27,8 @@ loading it must not run code from it:
   from the env, the run's ``config.yml`` and fixed values, :data:`FRESH`), so SB3 unpickles
   none, and refuses a model with an entry it cannot rebuild. SB3 (>= 2.8) reads the weights
   with ``torch.load(weights_only=True)``: tensors only.
-* An rl_zoo3 run, and an algorithm other than PPO and SAC, load only with ``trust_pickle``.
+* An rl_zoo3 run, and an algorithm other than those ``agents.train`` runs (PPO, SAC,
+  RecurrentPPO, TQC: ``agents.hyperparams.ALGOS``), load only with ``trust_pickle``.
 
 A damaged or foreign file (a truncated zip, a zip that is not a model, statistics of the
 wrong shape or missing) is a ``ValueError`` in one line, which the commands print as such.
@@ -50,7 +51,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-from .hyperparams import ALGOS, algo_kwargs, algorithm_class
+from .hyperparams import ALGOS, ZOO_NAMES, algo_kwargs, algorithm_class
 
 __all__ = [
     "FRESH",
@@ -87,9 +88,19 @@ FRESH = (
 #: Hyperparameters SB3 cloudpickles when they are objects: rebuilt from the run's config
 #: (``agents.hyperparams.algo_kwargs``), else from the constant SB3 writes beside the pickle,
 #: else the algorithm's default (the last two only change training, not a model's actions).
+#: (TQC's ``target_entropy`` too: ``_target_entropy``.)
 REBUILT_HYPERPARAMETERS = ("learning_rate", "clip_range", "clip_range_vf", "train_freq")
-#: stable-baselines3's algorithms; PPO and SAC load without pickle, the others with trust.
+#: stable-baselines3's algorithms; those of ``ALGOS`` load without pickle, the others with
+#: trust.
 SB3_ALGOS = ("a2c", "ddpg", "dqn", "ppo", "sac", "td3")
+#: The module of a saved policy class (in the zip's JSON) -> the algorithm that saved it.
+POLICY_MODULES = {
+    "stable_baselines3.common.policies": "ppo",  # shared by PPO and A2C: taken for PPO
+    "stable_baselines3.ppo.policies": "ppo",
+    "sb3_contrib.common.recurrent.policies": "recurrent_ppo",
+    "sb3_contrib.ppo_recurrent.policies": "recurrent_ppo",
+    "sb3_contrib.tqc.policies": "tqc",
+}
 #: The first stable-baselines3 release that reads weights with ``weights_only=True``.
 SAFE_SB3 = (2, 8)
 #: What the refusals tell the user to do.
@@ -156,6 +167,8 @@ class SavedModel:
         pickled_statistics: where a pickle of them would be (rl_zoo3's, or older runs').
         hyperparameters: the run's resolved config (``agents.train``'s runs only).
         layout: ``"agents.train"``, ``"rl_zoo3"`` or ``"none"`` (a lone zip).
+        truth_free: the run trained without the truth (``agents.train --truth-free``).
+        action_deadband: the run's action deadband (``agents.policies.deadband``; 0: none).
     """
 
     path: Path
@@ -168,6 +181,8 @@ class SavedModel:
     pickled_statistics: Path | None = None
     hyperparameters: dict = field(default_factory=dict)
     layout: str = "none"
+    truth_free: bool = False
+    action_deadband: float = 0.0
 
 
 def model_run(path: str | Path) -> SavedModel:
@@ -208,6 +223,8 @@ def read_run(path: str | Path) -> SavedModel:
             pickled_statistics=statistics_path(path, ".pkl"),
             hyperparameters=dict(hyper),
             layout="agents.train" if config_file.exists() else "none",
+            truth_free=bool(record.get("truth_free", False)),
+            action_deadband=float(record.get("action_deadband", 0.0)),
         )
     (params,) = zoo
     args = _load_zoo_yaml(params / "args.yml")
@@ -216,7 +233,7 @@ def read_run(path: str | Path) -> SavedModel:
     return SavedModel(
         path=path,
         run_dir=run_dir,
-        algo=args.get("algo"),
+        algo={zoo: ours for ours, zoo in ZOO_NAMES.items()}.get(args.get("algo"), args.get("algo")),
         env_id=args.get("env"),
         env_kwargs=dict(args.get("env_kwargs") or hyper.get("env_kwargs") or {}),
         normalize=bool(hyper.get("normalize", False)),
@@ -273,23 +290,24 @@ def read_model_data(path: str | Path) -> dict[str, Any]:
 
 
 def saved_algo(path: str | Path) -> str:
-    """The algorithm of a stable-baselines3 model, from the module of the policy class its
-    zip names in JSON beside the pickle (``common.policies``, shared by PPO and A2C, is
-    taken for PPO).
+    """The algorithm of a stable-baselines3 (or sb3-contrib) model, from the module of the
+    policy class its zip names in JSON beside the pickle (:data:`POLICY_MODULES`;
+    ``common.policies``, shared by PPO and A2C, is taken for PPO).
 
     Raises:
         ValueError: the file is not a stable-baselines3 model.
     """
     data = read_model_data(path)
     module = str((data.get("policy_class") or {}).get("__module__", ""))
-    if module in ("stable_baselines3.common.policies", "stable_baselines3.ppo.policies"):
-        return "ppo"
+    if module in POLICY_MODULES:
+        return POLICY_MODULES[module]
     match = re.fullmatch(r"stable_baselines3\.(\w+)\.policies", module)
     if match and match.group(1) in SB3_ALGOS:
         return match.group(1)
     raise ValueError(
         f"{str(path)!r} holds a policy of {module or 'no known module'}; agents.evaluate runs "
-        "stable-baselines3 models: PPO and SAC, and its other algorithms with --trust-pickle"
+        f"the models of {', '.join(ALGOS)}, and stable-baselines3's other algorithms with "
+        "--trust-pickle"
     )
 
 
@@ -297,17 +315,18 @@ def model_class(algo: str, trust_pickle: bool) -> type:
     """The stable-baselines3 class that loads a model of ``algo``.
 
     Raises:
-        ValueError: an algorithm SB3 does not have, or one other than PPO and SAC without
-            ``trust_pickle`` (the safe load knows the entries of PPO's and SAC's zips only).
+        ValueError: an algorithm SB3 does not have, or one outside ``ALGOS`` without
+            ``trust_pickle`` (the safe load knows the entries of their zips only).
     """
     if algo in ALGOS:
         return algorithm_class(algo)
     if algo not in SB3_ALGOS:
-        raise ValueError(f"algo must be one of stable-baselines3's {SB3_ALGOS}, got {algo!r}")
+        known = (*ALGOS, *(a for a in SB3_ALGOS if a not in ALGOS))
+        raise ValueError(f"algo must be one of {known}, got {algo!r}")
     if not trust_pickle:
         raise ValueError(
             f"a {algo.upper()} model loads only by unpickling it (the package rebuilds the "
-            f"entries of {' and '.join(a.upper() for a in ALGOS)} models only); {TRUST_HINT}"
+            f"entries of {', '.join(ALGOS)} models only); {TRUST_HINT}"
         )
     import stable_baselines3
 
@@ -329,8 +348,8 @@ def load_model(
         model: the model (its :func:`model_run`, or its path).
         env: the env (or VecEnv) it is to act on: its spaces replace the saved ones, once
             checked against the shapes the zip states in JSON.
-        trust_pickle: let SB3 unpickle the zip's entries (an rl_zoo3 run, an algorithm other
-            than PPO and SAC, an entry the package cannot rebuild).
+        trust_pickle: let SB3 unpickle the zip's entries (an rl_zoo3 run, an algorithm outside
+            ``ALGOS``, an entry the package cannot rebuild).
         device: torch device.
         attach: give ``env`` to the model (to continue training it).
 
@@ -415,6 +434,8 @@ def _rebuilt_objects(saved: SavedModel, data: dict, cls: type, env) -> dict[str,
             objects[key] = None
         elif key == "policy_class":
             objects[key] = _policy_class(saved, data[key], cls, env.observation_space)
+        elif key == "target_entropy":
+            objects[key] = _target_entropy(given.get(key, "auto"), env.action_space)
         elif key in REBUILT_HYPERPARAMETERS and key in defaults:
             readable = _saved_constant(data[key])
             objects[key] = given.get(key, readable if readable is not None else defaults[key])
@@ -426,12 +447,26 @@ def _rebuilt_objects(saved: SavedModel, data: dict, cls: type, env) -> dict[str,
     return objects
 
 
+def _target_entropy(value: Any, action_space) -> np.float32:
+    """An entropy-tuning target (TQC pickles the number it made of ``"auto"``): the config's
+    number, else ``-dim(actions)``, what ``"auto"`` means (it only steers training)."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return np.float32(value)
+    return np.float32(-np.prod(action_space.shape))
+
+
 def _policy_class(saved: SavedModel, entry: dict, cls: type, observation_space) -> type:
-    """The policy class the run config names (``policy``), else the one for the observation
-    space; it must be the class whose module and ``__init__`` the zip names in JSON."""
-    name = saved.hyperparameters.get("policy") or (
-        "MultiInputPolicy" if isinstance(observation_space, gym.spaces.Dict) else "MlpPolicy"
-    )
+    """The policy class the run config names (``policy``), else the algorithm's one for the
+    observation space (``MultiInput...`` for a Dict, ``Mlp...``; ``...LstmPolicy`` for a
+    recurrent algorithm); it must be the class whose module and ``__init__`` the zip names in
+    JSON."""
+    name = saved.hyperparameters.get("policy")
+    if not name:
+        prefix = "MultiInput" if isinstance(observation_space, gym.spaces.Dict) else "Mlp"
+        name = next(
+            (n for n in (f"{prefix}Policy", f"{prefix}LstmPolicy") if n in cls.policy_aliases),
+            f"{prefix}Policy",
+        )
     policy_class = cls.policy_aliases.get(name) if isinstance(name, str) else None
     if policy_class is None:
         raise ValueError(

@@ -47,7 +47,13 @@ import tactile_gym
 from tactile_gym.presets import load_yaml, preset_path
 
 from .cli import EXPECTED_ERRORS, check_env_id, make_env, make_parser, run_main
-from .hyperparams import ALGOS, check_hyperparameters, load_hyperparameters
+from .hyperparams import (
+    ALGOS,
+    check_hyperparameters,
+    load_deadband,
+    load_hyperparameters,
+    truth_free_env_kwargs,
+)
 from .runs import latest_checkpoint
 from .seeds import TEST_SEED
 from .warmstart import load_recipe
@@ -61,7 +67,8 @@ SWEEP_KEYS = {
     "budgets": "env steps: one number, a mapping algo -> number, or null for the train YAML's",
     "evaluation": "mapping: episodes, seed (first held-out seed), model (final_model|best_model)",
     "train": "mapping of agents.train arguments: n_envs, eval_freq, eval_episodes, "
-    "checkpoint_freq, config_path, warm_start (keys over the recipe, e.g. {demos: 0})",
+    "checkpoint_freq, config_path, warm_start (keys over the recipe, e.g. {demos: 0}), "
+    "truth_free (true: train without the truth), action_deadband",
     "overrides": "mapping algo -> hyperparameters over configs/train/<algo>.yml",
     "env_kwargs": "gym.make keywords for every job",
     "cpus_per_job": "CPUs each job declares to Ray (default 1)",
@@ -73,6 +80,8 @@ TRAIN_ARGS = (
     "checkpoint_freq",
     "config_path",
     "warm_start",
+    "truth_free",
+    "action_deadband",
 )
 EVALUATION_DEFAULTS = {"episodes": 20, "seed": TEST_SEED, "model": "final_model"}
 MODELS = ("final_model", "best_model")
@@ -159,6 +168,8 @@ def load_sweep(sweep: str | Path | dict) -> dict[str, Any]:
     train = dict(config.get("train") or {})
     if set(train) - set(TRAIN_ARGS):
         raise ValueError(f"train keys must be among {TRAIN_ARGS}, got {sorted(train)}")
+    if not isinstance(train.get("truth_free", False), bool):
+        raise ValueError(f"train.truth_free must be true or false, got {train['truth_free']!r}")
     config["train"] = train
     overrides = dict(config.get("overrides") or {})
     if set(overrides) - set(ALGOS):
@@ -184,10 +195,16 @@ def expand(config: dict[str, Any]) -> list[Job]:
     """
     jobs = []
     config_path = config["train"].get("config_path")
+    if config["train"].get("truth_free"):
+        truth_free_env_kwargs(config["env_kwargs"])
     for env_id in config["env_ids"]:
         check_env_kwargs(env_id, config["env_kwargs"])
         for algo in config["algos"]:
             hyperparams = load_hyperparameters(algo, env_id, config_path)
+            load_deadband(
+                preset_path("train", config_path or algo), env_id, config["train"].get(
+                    "action_deadband")
+            )  # fmt: skip
             hyperparams.update(config["overrides"].get(algo) or {})
             check_hyperparameters(algo, hyperparams)
             if "warm_start" in config["train"]:

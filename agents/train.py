@@ -57,7 +57,14 @@ from .cli import (
     require,
     run_main,
 )
-from .hyperparams import ALGOS, algo_kwargs, algorithm_class, resolve_config
+from .hyperparams import (
+    ALGOS,
+    algo_kwargs,
+    algorithm_class,
+    load_deadband,
+    resolve_config,
+    truth_free_env_kwargs,
+)
 from .progress import clock, progress_lines
 from .resources import DEFAULT_TORCH_THREADS, available_cpus, choose_env_workers, torch_threads
 from .runs import (
@@ -82,7 +89,8 @@ class TrainArgs:
     """The arguments of a run: :func:`train`'s keywords, ``python -m agents.train``'s options.
 
     Attributes:
-        algo: ``"ppo"`` or ``"sac"``.
+        algo: one of ``agents.hyperparams.ALGOS``: ``"ppo"``, ``"sac"``, ``"recurrent_ppo"``
+            (sb3-contrib's RecurrentPPO, an LSTM policy) or ``"tqc"`` (sb3-contrib's TQC).
         env_id: a registered id from ``tactile_gym.ENV_IDS``.
         n_timesteps: total env steps; overrides the config.
         n_envs: parallel envs; overrides the config.
@@ -112,8 +120,16 @@ class TrainArgs:
         resume: with a ``run_dir`` that holds an interrupted run, continue it from its
             latest checkpoint (``agents.runs.latest_checkpoint``) instead of refusing.
         warm_start: keys over the config's ``warm_start`` recipe for the id
-            (``agents.warmstart.WarmStart``): with demonstrations, PPO starts from a policy
-            cloned from them and a critic fitted to their returns.
+            (``agents.warmstart.WarmStart``): with demonstrations, the model starts from a
+            policy cloned from them and a critic fitted to their returns.
+        truth_free: train without the truth: the ``task`` of
+            ``agents.hyperparams.TRUTH_FREE_TASK`` (the reward scores the estimator's
+            predicted error, the workspace is centred on the start pose), and the envs' infos
+            stripped of the truth (``agents.callbacks.WithoutTruth``), so that the periodic
+            selection ranks by the truth-free return and nothing of the loop reads the truth.
+        action_deadband: execute action components smaller than this in magnitude as 0, in
+            training and whenever the model acts (``agents.policies.deadband``); None: the
+            config's ``action_deadband`` table for the id (``agents.hyperparams``), else 0.
     """
 
     algo: str = "ppo"
@@ -138,6 +154,8 @@ class TrainArgs:
     command: str | None = None
     resume: bool = False
     warm_start: Mapping[str, Any] | None = None
+    truth_free: bool = False
+    action_deadband: float | None = None
 
 
 class Trainer:
@@ -161,6 +179,8 @@ class Trainer:
             args.algo, args.env_id, args.config_path, args.hyperparams, args.env_kwargs,
             args.n_timesteps, args.n_envs,
         )  # fmt: skip
+        if args.truth_free:
+            self.config["env_kwargs"] = truth_free_env_kwargs(self.config.get("env_kwargs"))
         self.n_envs = int(self.config["n_envs"])
         self.total_steps = int(self.config["n_timesteps"])
         self.n_cpus = int(args.n_cpus or available_cpus())
@@ -175,11 +195,9 @@ class Trainer:
         elif args.env_workers is not None:
             raise ValueError(f"env_workers needs vec_env 'vector', got vec_env {args.vec_env!r}")
         self.n_threads = int(args.n_threads or DEFAULT_TORCH_THREADS)
-        self.recipe = load_recipe(
-            preset_path("train", args.config_path or args.algo), args.env_id, args.warm_start
-        )
-        if self.recipe.enabled and args.algo != "ppo":
-            raise ValueError(f"warm_start runs with ppo only, got algo {args.algo!r}")
+        config_file = preset_path("train", args.config_path or args.algo)
+        self.recipe = load_recipe(config_file, args.env_id, args.warm_start)
+        self.deadband = load_deadband(config_file, args.env_id, args.action_deadband)
         self.env_kwargs = dict(self.config.get("env_kwargs") or {})
         self.selection_seeds = list(
             range(SELECTION_SEED, SELECTION_SEED + max(args.eval_episodes, 1))
@@ -230,8 +248,8 @@ class Trainer:
         return self._construct()
 
     def warm_start(self, model) -> None:
-        """A new PPO model starts from the recipe's demonstrations (``agents.warmstart``);
-        a resumed or a SAC run, or a recipe without demonstrations, starts as it is."""
+        """A new model starts from the recipe's demonstrations (``agents.warmstart``); a
+        resumed run, or a recipe without demonstrations, starts as it is."""
         if self.recipe.enabled and self.checkpoint is None:
             run_recipe(
                 model, self.recipe, self.args.env_id, self.env_kwargs, self.args.seed, self.run_dir
@@ -264,6 +282,7 @@ class Trainer:
         from stable_baselines3.common.env_util import make_vec_env
         from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
+        from .callbacks import ActionDeadband, WithoutTruth
         from .vec_env import make_sb3_vec_env
 
         if self.args.vec_env == "vector":
@@ -272,10 +291,13 @@ class Trainer:
                 make_sb3_vec_env(self.args.env_id, n, min(self.workers, n), **self.env_kwargs)
             )
             envs.seed(first_seed)
-            return envs
-        factory = functools.partial(make_env, self.args.env_id, **self.env_kwargs)
-        vec_cls = SubprocVecEnv if self.args.vec_env == "subproc" and n > 1 else DummyVecEnv
-        return make_vec_env(factory, n_envs=n, seed=first_seed, vec_env_cls=vec_cls)
+        else:
+            factory = functools.partial(make_env, self.args.env_id, **self.env_kwargs)
+            vec_cls = SubprocVecEnv if self.args.vec_env == "subproc" and n > 1 else DummyVecEnv
+            envs = make_vec_env(factory, n_envs=n, seed=first_seed, vec_env_cls=vec_cls)
+        if self.deadband:
+            envs = ActionDeadband(envs, self.deadband)
+        return WithoutTruth(envs) if self.args.truth_free else envs
 
     def _open_run_dir(self) -> None:
         """A fresh folder under ``log_folder``, or ``run_dir``: refused if it holds a run,
@@ -314,6 +336,8 @@ class Trainer:
             "algo": args.algo,
             "env_id": args.env_id,
             "seed": args.seed,
+            "truth_free": args.truth_free,
+            "action_deadband": self.deadband,
             "command": args.command or shlex.join(sys.argv),
             "arguments": arguments,
             "resources": {
@@ -348,7 +372,8 @@ class Trainer:
         kwargs = normalize if isinstance(normalize, dict) else {}
         kwargs = {"gamma": self.config.get("gamma", 0.99), **kwargs}
         if self.checkpoint is not None:
-            self.env = load_statistics(read_run(self.checkpoint), self.env, training=True)
+            training = not (self.recipe.enabled and self.recipe.freeze_statistics)
+            self.env = load_statistics(read_run(self.checkpoint), self.env, training=training)
         else:
             self.env = VecNormalize(self.env, **kwargs)
         eval_kwargs = {k: v for k, v in kwargs.items() if k != "norm_reward"}
@@ -522,6 +547,20 @@ def main(argv: list[str] | None = None) -> Path:
         f"(demos:0 turns it off; agents.warmstart.WarmStart); {KEY_VALUE_HELP}",
     )
     parser.add_argument(
+        "--truth-free",
+        action="store_true",
+        help="train without the truth: the reward scores the estimator's predicted error, the "
+        "workspace is centred on the start pose, the infos lose the truth, so selection ranks "
+        "by the truth-free return (agents.hyperparams.TRUTH_FREE_TASK)",
+    )
+    parser.add_argument(
+        "--action-deadband",
+        type=float,
+        default=None,
+        help="action components smaller than this act as 0, in training and after "
+        "(agents.policies.deadband); default: the config's action_deadband table, else 0",
+    )
+    parser.add_argument(
         "--checkpoint-freq", type=int, default=50_000, help="env steps between checkpoints; 0: none"
     )
     parser.add_argument(
@@ -575,6 +614,8 @@ def main(argv: list[str] | None = None) -> Path:
         n_threads=args.torch_threads,
         device=args.device,
         warm_start=args.warm_start,
+        truth_free=args.truth_free,
+        action_deadband=args.action_deadband,
         command=shlex.join(["python", "-m", parser.prog.split()[-1], *(argv or sys.argv[1:])]),
     )
 

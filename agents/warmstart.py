@@ -16,6 +16,19 @@ pre-fitted to the demonstrations' returns (``docs/design.md``, Learning).
    so that PPO's first advantages measure the clone's actions rather than an untrained
    critic's noise.
 
+A recurrent policy (sb3-contrib's ``RecurrentPPO``) is cloned through whole episodes: each
+demonstrated episode is one sequence, the LSTM state carried from its first step to its last
+and started from zero, as it is when the policy acts, so the clone can hold what the
+demonstrator's own hidden state (the skill executor's phase) carried. The critic is fitted
+the same way.
+
+An off-policy actor-critic (sb3-contrib's ``TQC``, SB3's ``SAC``) gets the same three steps in
+its own terms: its squashed Gaussian's mean action cloned by the same fixed-deviation
+likelihood and its log standard deviation fitted to ``action_std``; every critic's every
+quantile (or Q-value) fitted to the demonstrations' discounted returns at the demonstrated
+actions, then copied into the target critics; and the demonstrated transitions are written
+into its replay buffer, so the first updates learn from them.
+
 The recipe is a short loop of our own over the SB3 policy rather than the ``imitation``
 library's BC: imitation's release pins Gymnasium 0.29 and Stable-Baselines3 2.2.
 
@@ -36,11 +49,12 @@ import numpy as np
 
 from tactile_gym.presets import load_yaml
 
-from .demos import Demos
+from .demonstrations import Demos
 from .progress import ProgressLines, clock
 
 __all__ = [
     "WarmStart",
+    "action_nll",
     "behaviour_clone",
     "fit_values",
     "load_recipe",
@@ -63,6 +77,10 @@ class WarmStart:
         learning_rate: Adam's step size for both fits.
         action_std: the policy's standard deviation during and after cloning, in units of
             the normalised action.
+        freeze_statistics: keep the ``VecNormalize`` statistics set from the demonstrations
+            for the whole run instead of updating them from its rollouts: a clone whose
+            actions must stay within a deadband (the 6-D ids, ``docs/design.md`` 12.1) acts
+            otherwise once its inputs' scaling drifts.
     """
 
     demos: int | str = 0
@@ -71,6 +89,7 @@ class WarmStart:
     batch_size: int = 128
     learning_rate: float = 1e-3
     action_std: float = 0.2
+    freeze_statistics: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.demos, bool) or not isinstance(self.demos, (int, str)):
@@ -88,6 +107,9 @@ class WarmStart:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
                 raise ValueError(f"warm_start.{name} must be a number > 0, got {value!r}")
+        freeze = self.freeze_statistics
+        if not isinstance(freeze, bool):
+            raise ValueError(f"warm_start.freeze_statistics must be true or false, got {freeze!r}")
 
     @property
     def enabled(self) -> bool:
@@ -236,22 +258,22 @@ def _minimise(
 
 
 def warm_start(model, demos: Demos, recipe: WarmStart, seed: int = 0) -> dict[str, Any]:
-    """Run the recipe on a PPO ``model`` (module docstring) and return what it measured:
+    """Run the recipe on a new ``model`` (module docstring) and return what it measured:
     samples, episodes, the demonstrations' seed range, the first and last epochs' losses.
 
+    Args:
+        model: a PPO, RecurrentPPO, TQC or SAC model.
+        demos: the demonstrations (``agents.demos``).
+        recipe: the recipe.
+        seed: seeds the minibatch order.
+
     Raises:
-        ValueError: a model that is not an on-policy actor-critic (PPO, A2C), or
+        ValueError: another kind of model (A2C shares PPO's policy and is cloned as it), or
             demonstrations whose actions do not fit the model's action space.
     """
     import torch
-    from stable_baselines3.common.policies import ActorCriticPolicy
 
-    policy = model.policy
-    if not isinstance(policy, ActorCriticPolicy) or not hasattr(policy, "log_std"):
-        raise ValueError(
-            f"warm_start needs an actor-critic policy with a Gaussian (ppo), "
-            f"got {type(model).__name__}"
-        )
+    kind = _model_kind(model)
     if demos.acts.shape[1:] != model.action_space.shape:
         raise ValueError(
             f"the demonstrations' actions have shape {demos.acts.shape[1:]}, "
@@ -263,20 +285,25 @@ def warm_start(model, demos: Demos, recipe: WarmStart, seed: int = 0) -> dict[st
         normalise_from_demos(vec_normalize, demos)
         obs = vec_normalize.normalize_obs(obs)
         rewards = vec_normalize.normalize_reward(rewards)
+        vec_normalize.training = not recipe.freeze_statistics
     generator = torch.Generator().manual_seed(seed)
-    tensors, _ = policy.obs_to_tensor(obs)
-    actions = torch.as_tensor(demos.acts, device=policy.device)
-    returns = torch.as_tensor(
-        demos.discounted_returns(model.gamma, rewards), dtype=torch.float32, device=policy.device
-    )
-    bc = behaviour_clone(
-        policy, tensors, actions, recipe.bc_epochs, recipe.batch_size, recipe.learning_rate,
-        recipe.action_std, generator,
-    )  # fmt: skip
-    value = fit_values(
-        policy, tensors, returns, recipe.value_epochs, recipe.batch_size, recipe.learning_rate,
-        generator,
-    )  # fmt: skip
+    returns = demos.discounted_returns(model.gamma, rewards)
+    if kind == "recurrent":
+        bc, value = _warm_start_recurrent(model.policy, obs, demos, returns, recipe, generator)
+    elif kind == "off_policy":
+        bc, value = _warm_start_off_policy(model, obs, demos, returns, recipe, generator)
+    else:
+        policy = model.policy
+        tensors, _ = policy.obs_to_tensor(obs)
+        actions = torch.as_tensor(demos.acts, device=policy.device)
+        bc = behaviour_clone(
+            policy, tensors, actions, recipe.bc_epochs, recipe.batch_size,
+            recipe.learning_rate, recipe.action_std, generator,
+        )  # fmt: skip
+        value = fit_values(
+            policy, tensors, torch.as_tensor(returns, dtype=torch.float32, device=policy.device),
+            recipe.value_epochs, recipe.batch_size, recipe.learning_rate, generator,
+        )  # fmt: skip
     return {
         "samples": len(demos),
         "episodes": len(demos.seeds),
@@ -284,6 +311,272 @@ def warm_start(model, demos: Demos, recipe: WarmStart, seed: int = 0) -> dict[st
         "bc_loss": [bc[0], bc[-1]] if bc else [],
         "value_loss": [value[0], value[-1]] if value else [],
     }
+
+
+def _model_kind(model) -> str:
+    """``"recurrent"`` (an LSTM actor-critic), ``"on_policy"`` (a Gaussian actor-critic) or
+    ``"off_policy"`` (an actor with critics and a replay buffer).
+
+    Raises:
+        ValueError: a model of none of these kinds.
+    """
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    policy = model.policy
+    if hasattr(policy, "lstm_actor") and isinstance(policy, ActorCriticPolicy):
+        if policy.use_sde:
+            raise ValueError("warm_start clones a recurrent policy without gSDE (use_sde false)")
+        return "recurrent"
+    if isinstance(policy, ActorCriticPolicy) and hasattr(policy, "log_std"):
+        return "on_policy"
+    if hasattr(policy, "actor") and hasattr(policy, "critic") and hasattr(model, "replay_buffer"):
+        if getattr(policy, "use_sde", False):
+            raise ValueError("warm_start clones an off-policy actor without gSDE (use_sde false)")
+        return "off_policy"
+    raise ValueError(
+        "warm_start needs a Gaussian actor-critic (ppo, recurrent_ppo) or an off-policy actor "
+        f"with critics (tqc, sac), got {type(model).__name__}"
+    )
+
+
+# ------------------------------------------------------------------ through whole episodes
+@dataclass
+class Sequences:
+    """Demonstrated episodes as padded sequences, one row per episode (``(E, L, ...)``), for
+    a recurrent policy: the steps past an episode's end are zeros, masked out of every loss.
+
+    Attributes:
+        obs: the (normalised) observations, a dict of tensors or one tensor.
+        values: per-step tensors by name (``(E, L, ...)``): ``actions``, ``returns``.
+        mask: ``(E, L)``, 1 on the episode's steps.
+    """
+
+    obs: Any
+    values: dict[str, Any]
+    mask: Any
+
+    @classmethod
+    def of(cls, policy, obs, episode: np.ndarray, **values: np.ndarray) -> Sequences:
+        """The demonstrations' steps (``obs``, ``values``), by their ``episode`` index."""
+        import torch
+
+        starts = np.flatnonzero(np.r_[True, episode[1:] != episode[:-1]])
+        ends = np.r_[starts[1:], len(episode)]
+        length = int((ends - starts).max())
+
+        def padded(array: np.ndarray) -> np.ndarray:
+            out = np.zeros((len(starts), length, *array.shape[1:]), dtype=np.float32)
+            for row, (a, b) in enumerate(zip(starts, ends)):
+                out[row, : b - a] = array[a:b]
+            return out
+
+        def tensor(array: np.ndarray):
+            return torch.as_tensor(padded(array), device=policy.device)
+
+        mask = np.zeros((len(starts), length), dtype=np.float32)
+        for row, (a, b) in enumerate(zip(starts, ends)):
+            mask[row, : b - a] = 1.0
+        observed = (
+            {k: tensor(np.asarray(v)) for k, v in obs.items()}
+            if isinstance(obs, dict)
+            else tensor(np.asarray(obs))
+        )
+        return cls(
+            observed,
+            {k: tensor(np.asarray(v, dtype=np.float32)) for k, v in values.items()},
+            torch.as_tensor(mask, device=policy.device),
+        )
+
+    def __len__(self) -> int:
+        return len(self.mask)
+
+    def batch(self, index) -> tuple[Any, dict[str, Any], Any]:
+        """The episodes ``index`` flattened episode by episode (``(n * L, ...)``), the order
+        in which ``RecurrentActorCriticPolicy`` cuts a batch into ``n`` sequences."""
+
+        def flat(t):
+            return t[index].reshape(-1, *t.shape[2:])
+
+        obs = self.obs
+        obs = {k: flat(v) for k, v in obs.items()} if isinstance(obs, dict) else flat(obs)
+        return obs, {k: flat(v) for k, v in self.values.items()}, flat(self.mask)
+
+
+def _zero_states(policy, n: int):
+    """LSTM states of ``n`` sequences at their start: zeros, as when the policy acts."""
+    import torch
+
+    layers, _, hidden = policy.lstm_hidden_state_shape
+    zeros = torch.zeros((layers, n, hidden), device=policy.device)
+    return zeros, zeros.clone()
+
+
+def _sequence_nll(policy, sequences: Sequences, index, action_std: float):
+    """Mean negative log-likelihood per demonstrated action of the episodes ``index``, the
+    LSTM run through each from a zero state."""
+    import torch
+
+    obs, values, mask = sequences.batch(index)
+    starts = torch.zeros(len(mask), device=policy.device)
+    distribution, _ = policy.get_distribution(obs, _zero_states(policy, len(index)), starts)
+    mean = distribution.distribution.mean
+    log_prob = torch.distributions.Normal(mean, action_std).log_prob(values["actions"]).sum(-1)
+    return -(log_prob * mask).sum() / mask.sum()
+
+
+def _warm_start_recurrent(policy, obs, demos: Demos, returns, recipe: WarmStart, generator):
+    """Clone the actor and fit the critic of a recurrent policy through whole episodes (module
+    docstring); ``recipe.batch_size`` samples make ``ceil(batch_size / L)`` episodes a batch.
+    Returns the two fits' losses per epoch."""
+    import torch
+
+    sequences = Sequences.of(
+        policy, obs, demos.episode, actions=demos.acts, returns=np.asarray(returns)
+    )
+    per_batch = max(1, math.ceil(recipe.batch_size / sequences.mask.shape[1]))
+    critic = ("value_net.", "mlp_extractor.value_net.", "lstm_critic.", "critic.")
+    actor = [
+        p
+        for name, p in policy.named_parameters()
+        if name != "log_std" and not name.startswith(critic)
+    ]
+
+    def nll(index):
+        return _sequence_nll(policy, sequences, index, recipe.action_std)
+
+    bc = _minimise(
+        policy, actor, nll, len(sequences), recipe.bc_epochs, per_batch, recipe.learning_rate,
+        generator,
+    )  # fmt: skip
+    policy.log_std.data.fill_(math.log(recipe.action_std))
+    critic_params = [p for name, p in policy.named_parameters() if name.startswith(critic)]
+
+    def squared_error(index):
+        batch_obs, values, mask = sequences.batch(index)
+        states = _zero_states(policy, len(index))
+        starts = torch.zeros(len(mask), device=policy.device)
+        predicted = policy.predict_values(batch_obs, states, starts).flatten()
+        return ((predicted - values["returns"]) ** 2 * mask).sum() / mask.sum()
+
+    value = _minimise(
+        policy, critic_params, squared_error, len(sequences), recipe.value_epochs, per_batch,
+        recipe.learning_rate, generator,
+    )  # fmt: skip
+    return bc, value
+
+
+# ------------------------------------------------------------------------- off-policy
+def _warm_start_off_policy(model, obs, demos: Demos, returns, recipe: WarmStart, generator):
+    """Clone the actor, fit the critics (then their targets) and fill the replay buffer of an
+    off-policy model (module docstring). Returns the two fits' losses per epoch."""
+    import torch
+
+    policy = model.policy
+    tensors, _ = policy.obs_to_tensor(obs)
+    targets = torch.as_tensor(np.asarray(returns), dtype=torch.float32, device=policy.device)
+
+    acts = policy.scale_action(demos.acts) if policy.squash_output else demos.acts
+    actions = torch.as_tensor(np.asarray(acts, dtype=np.float32), device=policy.device)
+    target_log_std = math.log(recipe.action_std)
+
+    def nll(index):
+        mean, log_std, _ = policy.actor.get_action_dist_params(_subset(tensors, index))
+        normal = torch.distributions.Normal(torch.tanh(mean), recipe.action_std)
+        fit = -normal.log_prob(actions[index]).sum(dim=-1).mean()
+        return fit + ((log_std - target_log_std) ** 2).mean()
+
+    bc = _minimise(
+        policy, list(policy.actor.parameters()), nll, len(demos), recipe.bc_epochs,
+        recipe.batch_size, recipe.learning_rate, generator,
+    )  # fmt: skip
+
+    def squared_error(index):
+        predicted = policy.critic(_subset(tensors, index), actions[index])
+        if isinstance(predicted, tuple):  # SAC: one Q-value per critic
+            predicted = torch.cat(predicted, dim=1)
+        wanted = targets[index].reshape(-1, *([1] * (predicted.dim() - 1)))
+        return ((predicted - wanted) ** 2).mean()
+
+    critic = [p for name, p in policy.critic.named_parameters() if "features_extractor" not in name]
+    value = _minimise(
+        policy, critic, squared_error, len(demos), recipe.value_epochs, recipe.batch_size,
+        recipe.learning_rate, generator,
+    )  # fmt: skip
+    policy.critic_target.load_state_dict(policy.critic.state_dict())
+    _fill_replay_buffer(model.replay_buffer, demos, np.asarray(actions.cpu()))
+    return bc, value
+
+
+def _fill_replay_buffer(buffer, demos: Demos, actions: np.ndarray) -> None:
+    """Write the demonstrated transitions into an empty replay buffer as SB3 stores its own:
+    raw observations and rewards (``VecNormalize`` applies when sampling), ``done`` at every
+    episode end and ``timeouts`` where it was a truncation (then bootstrapped). Transitions
+    fill the buffer's rows ``n_envs`` at a time; a remainder short of a row is left out."""
+    n_envs = buffer.n_envs
+    count = min(len(demos) - len(demos) % n_envs, buffer.buffer_size * n_envs)
+    if count == 0:
+        return
+    last = np.r_[demos.episode[1:] != demos.episode[:-1], True]
+    following = np.r_[np.arange(1, len(demos)), 0]
+
+    def next_of(step: np.ndarray, final: np.ndarray) -> np.ndarray:
+        return np.where(
+            last.reshape(-1, *([1] * (step.ndim - 1))), final[demos.episode], step[following]
+        )
+
+    def rows(array: np.ndarray) -> np.ndarray:
+        return np.asarray(array[:count]).reshape(count // n_envs, n_envs, *array.shape[1:])
+
+    if isinstance(demos.obs, dict):
+        for key in buffer.observations:
+            buffer.observations[key][: count // n_envs] = rows(demos.obs[key])
+            buffer.next_observations[key][: count // n_envs] = rows(
+                next_of(demos.obs[key], demos.final_obs[key])
+            )
+    else:
+        buffer.observations[: count // n_envs] = rows(demos.obs)
+        buffer.next_observations[: count // n_envs] = rows(next_of(demos.obs, demos.final_obs))
+    buffer.actions[: count // n_envs] = rows(actions)
+    buffer.rewards[: count // n_envs] = rows(demos.rews)
+    buffer.dones[: count // n_envs] = rows(last.astype(np.float32))
+    if getattr(buffer, "timeouts", None) is not None:
+        buffer.timeouts[: count // n_envs] = rows(demos.truncated.astype(np.float32))
+    buffer.pos = (count // n_envs) % buffer.buffer_size
+    buffer.full = count // n_envs >= buffer.buffer_size
+
+
+# ---------------------------------------------------------------------------- measures
+def action_nll(model, demos: Demos, action_std: float) -> float:
+    """The mean negative log-likelihood per demonstrated action, nats, of ``demos`` under a
+    Gaussian of deviation ``action_std`` around ``model``'s mean action (the cloning loss,
+    without fitting anything): the clone's fit, on demonstrations it was not fitted to when
+    they are held out. A recurrent model runs through each episode from a zero state; the
+    model's ``VecNormalize`` statistics (if any) scale the observations, unchanged.
+
+    For ``A`` action components a perfect fit scores
+    ``A * (log(action_std) + log(2 pi) / 2)``.
+    """
+    import torch
+
+    kind = _model_kind(model)
+    policy = model.policy
+    vec_normalize = model.get_vec_normalize_env()
+    obs = demos.obs if vec_normalize is None else vec_normalize.normalize_obs(demos.obs)
+    policy.set_training_mode(False)
+    with torch.no_grad():
+        if kind == "recurrent":
+            sequences = Sequences.of(policy, obs, demos.episode, actions=demos.acts)
+            index = torch.arange(len(sequences))
+            return float(_sequence_nll(policy, sequences, index, action_std))
+        tensors, _ = policy.obs_to_tensor(obs)
+        if kind == "off_policy":
+            mean = torch.tanh(policy.actor.get_action_dist_params(tensors)[0])
+            acts = policy.scale_action(demos.acts) if policy.squash_output else demos.acts
+        else:
+            mean, acts = policy.get_distribution(tensors).distribution.mean, demos.acts
+        acts = torch.as_tensor(np.asarray(acts, dtype=np.float32), device=policy.device)
+        normal = torch.distributions.Normal(mean, action_std)
+        return float(-normal.log_prob(acts).sum(dim=-1).mean())
 
 
 def load_recipe(
@@ -312,7 +605,7 @@ def run_recipe(
 
     import yaml
 
-    from .demos import load_demos, record_demos, save_demos
+    from .demonstrations import load_demos, record_demos, save_demos
     from .seeds import DEMO_SEED
 
     start = time.monotonic()

@@ -1,15 +1,16 @@
 """What the adaptive press gives the scripted baseline on an env (docs/design.md 5.2).
 
 Plays the scripted policy on the same seeded episodes of a primitive id with the v2 press
-(a fixed force gradient, a fixed dwell) and with the adaptive one (``ADAPTIVE``: the skills
-measure the force gradient, and the gate measures a still press once the predicted edge error
-of its mean reaches a target, within a budget, judging its steadiness on the force's trend),
-on the default skin and on stiffer or softer ones (``--skins``: the env's
+(a fixed force gradient, a fixed dwell) and with the adaptive one (the skills measure the
+force gradient, and the gate measures a still press once the predicted edge error of its mean
+reaches a target, within a budget, judging its steadiness on the force's trend; the v3 ids'
+keywords unless ``--target``, ``--budget``, ``--holds-only`` or ``--gradient-only`` change
+them), on the default skin and on stiffer or softer ones (``--skins``: the env's
 ``skin.normal_stiffness`` as a factor of the default; the sensing is told, the press's assumed
-6000 N/m is not). It prints, per press and skin, the final
-position error (mean, median, P90), the success rate, the accepted measurements and the still
-steps a probe held, per episode. The default seeds lie in the selection range
-(``agents.seeds``), never in the test range.
+6000 N/m is not). It prints, per press and skin, the final position error (mean, median, P90),
+the mean final angle error, the success rate, the accepted measurements and the readings a
+probe held, per episode. The default seeds lie in the selection range (``agents.seeds``),
+never in the test range.
 
 Run: ``python benchmarks/adaptive_press.py [--env ID] [--episodes N] [--seed S]
 [--skins 1 2 0.5] [--target DEG] [--budget N] [--holds-only | --gradient-only]
@@ -39,12 +40,37 @@ from agents.seeds import SELECTION_SEED  # noqa: E402
 from tactile_gym.envs import skills  # noqa: E402
 from tactile_gym.sim import SkinConfig  # noqa: E402
 
-#: The adaptive press's keywords: the gate's hold rule (a target, deg, and a budget) and
-#: steadiness, and the skills' measured force gradient.
-TARGET, BUDGET = 1.25, 12
+#: The v3 ids' adaptive press (``tactile_gym``'s registration): its gate keywords.
+V3_GATE = gym.spec("tactile_gym/HingeProbePrimitive-v3").kwargs["gate"]
+#: The gate keywords that make its hold rule and steadiness adaptive.
+ADAPTIVE_GATE_KEYS = ("edge_std_target", "dwell_budget", "steady_rule")
 
 
-def adaptive(target: float = TARGET, budget: int = BUDGET, holds=True, gradient=True) -> dict:
+def merged(*layers: dict) -> dict:
+    """Keywords laid over one another, a nested section (a dict) merged key by key."""
+    out: dict = {}
+    for layer in layers:
+        for key, value in layer.items():
+            if isinstance(value, dict) and isinstance(out.get(key), dict):
+                value = {**out[key], **value}
+            out[key] = value
+    return out
+
+
+def press_kwargs(env_id: str, adaptive: dict | None) -> dict:
+    """The id's keywords with its press replaced: the v2 press (``adaptive`` None), or the
+    adaptive one of ``adaptive`` (:func:`adaptive`)."""
+    registered = gym.spec(env_id).kwargs
+    gate = {k: v for k, v in registered.get("gate", {}).items() if k not in ADAPTIVE_GATE_KEYS}
+    adaptive = adaptive or {"measure_gradient": False}
+    return {
+        **registered,
+        "measure_gradient": adaptive["measure_gradient"],
+        "gate": {**gate, **adaptive.get("gate", {})},
+    }
+
+
+def adaptive(target: float, budget: int, holds=True, gradient=True) -> dict:
     """The keywords that turn the adaptive press on (``holds``: the gate's hold rule, a
     ``target`` in deg and a ``budget`` in readings, with the trend's steadiness;
     ``gradient``: the skills' measured force gradient)."""
@@ -92,12 +118,14 @@ def play(env_id: str, kwargs: dict, seeds: range) -> tuple[dict, float]:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="tactile_gym/HingeProbePrimitive-v2")
+    parser.add_argument("--env", default="tactile_gym/HingeProbePrimitive-v3")
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--seed", type=int, default=SELECTION_SEED)
     parser.add_argument("--skins", type=float, nargs="+", default=[1.0])
-    parser.add_argument("--target", type=float, default=TARGET, help="deg")
-    parser.add_argument("--budget", type=int, default=BUDGET, help="readings")
+    parser.add_argument(
+        "--target", type=float, default=math.degrees(V3_GATE["edge_std_target"]), help="deg"
+    )
+    parser.add_argument("--budget", type=int, default=V3_GATE["dwell_budget"], help="readings")
     only = parser.add_mutually_exclusive_group()
     only.add_argument("--holds-only", action="store_true", help="the gradient assumed")
     only.add_argument("--gradient-only", action="store_true", help="the v2 dwell")
@@ -109,17 +137,19 @@ def main(argv: list[str] | None = None) -> None:
     print(f"adaptive: {chosen}; both: {args.env_kwargs}\n")
     print(
         "| press | skin stiffness (x configured) | final position error mean / median / P90 (mm)"
-        " | success | measurements | readings a probe held |"
+        " | angle error (deg) | success | measurements | readings a probe held |"
     )
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|")
     stiffness = SkinConfig().normal_stiffness
     for skin in args.skins:
-        for name, kwargs in (("v2", {}), ("adaptive", chosen)):
+        for name, press in (("v2", None), ("adaptive", chosen)):
             world = {"skin": {"normal_stiffness": skin * stiffness}} if skin != 1.0 else {}
-            row, held = play(args.env, {**args.env_kwargs, **kwargs, **world}, seeds)
+            kwargs = merged(press_kwargs(args.env, press), args.env_kwargs, world)
+            row, held = play(args.env, kwargs, seeds)
             print(
                 f"| {name} | {skin:g} | {row['position_mean_mm']:.2f} /"
                 f" {row['position_median_mm']:.2f} / {row['position_p90_mm']:.2f} |"
+                f" {row['angle_mean_deg']:.2f} |"
                 f" {100 * row['success_rate']:.0f} % | {row['measurements_mean']:.1f} |"
                 f" {held:.1f} |",
                 flush=True,

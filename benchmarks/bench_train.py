@@ -2,6 +2,7 @@
 
     python benchmarks/bench_train.py                      # PPO, configs/train/ppo.yml, 2 envs
     python benchmarks/bench_train.py --algo sac --steps 2000
+    python benchmarks/bench_train.py --env tactile_gym/HingeProbePrimitive-v2 --steps 1024
 
 Every case trains the same stable-baselines3 config (the algo's YAML for the env, with its
 ``n_envs`` and ``VecNormalize``) for ``--steps`` env steps, after a warm-up that is not timed
@@ -11,6 +12,11 @@ cost, so its run is SB3's own overhead (rollout bookkeeping, normalisation, the 
 updates); measured in the same run, ``1 - t_dummy / t_env`` is the env's share of training
 time. *env only* steps the same vector env with random actions and no learning.
 
+The env cases run for each contact step of ``--physics`` (the env keyword ``physics``:
+``v2``, the exact step, ``v3``, the lean one, ``docs/design.md`` 3.6) in the same run; the
+headline line gives training's env steps per second end to end (primitives per second on a
+primitive id) with ``agents.train``'s choice of workers, per physics.
+
 Prints a markdown table. On a shared machine timings vary a lot with the load from elsewhere:
 ``--repeats`` runs the cases round-robin and keeps the fastest run of each.
 """
@@ -19,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -30,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import tactile_gym  # noqa: E402
 from agents import cli, hyperparams, resources  # noqa: E402
+from benchmarks.bench_env import add_physics_option  # noqa: E402
 
 
 class SpacesEnv(gym.Env):
@@ -71,9 +79,10 @@ def _factory(env_id: str, env_kwargs: dict, dummy: bool):
     return make
 
 
-def _vec_env(env_id, config, workers: int, dummy: bool):
-    """``agents.train``'s envs: the package's vector env with ``workers`` processes, or for
-    the zero-cost env SB3's loop over it (in this process, or one process per env)."""
+def _vec_env(env_id, config, workers: int, dummy: bool, physics: str | None = None):
+    """``agents.train``'s envs (contact step ``physics``, None for the env's default): the
+    package's vector env with ``workers`` processes, or for the zero-cost env SB3's loop over
+    it (in this process, or one process per env)."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import (
         DummyVecEnv,
@@ -85,6 +94,8 @@ def _vec_env(env_id, config, workers: int, dummy: bool):
     from agents.vec_env import make_sb3_vec_env
 
     env_kwargs = dict(config.get("env_kwargs") or {})
+    if physics is not None:
+        env_kwargs["physics"] = physics
     n_envs = int(config["n_envs"])
     if not dummy:
         env = VecMonitor(make_sb3_vec_env(env_id, n_envs, workers, **env_kwargs))
@@ -102,11 +113,11 @@ def _vec_env(env_id, config, workers: int, dummy: bool):
     return env
 
 
-def time_training(algo, env_id, config, workers, threads, steps, dummy) -> float:
+def time_training(algo, env_id, config, workers, threads, steps, dummy, physics) -> float:
     """Seconds of ``learn(steps)`` after an untimed warm-up ``learn`` of one rollout."""
     from stable_baselines3 import PPO, SAC
 
-    env = _vec_env(env_id, config, workers, dummy)
+    env = _vec_env(env_id, config, workers, dummy, physics)
     try:
         with resources.torch_threads(threads):
             model = {"ppo": PPO, "sac": SAC}[algo](
@@ -121,9 +132,9 @@ def time_training(algo, env_id, config, workers, threads, steps, dummy) -> float
         env.close()
 
 
-def time_env_only(env_id, config, workers, steps) -> float:
+def time_env_only(env_id, config, workers, steps, physics) -> float:
     """Seconds to step the vector env ``steps`` times (summed over envs), random actions."""
-    env = _vec_env(env_id, config, workers, dummy=False)
+    env = _vec_env(env_id, config, workers, dummy=False, physics=physics)
     try:
         env.reset()
         env.action_space.seed(0)
@@ -146,6 +157,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--steps", type=int, default=4096, help="timed env steps per case")
     parser.add_argument("--n-envs", type=int, default=None)
     parser.add_argument("--repeats", type=int, default=1)
+    add_physics_option(parser)
     args = parser.parse_args(argv)
 
     config = hyperparams.resolve_config(args.algo, args.env, n_envs=args.n_envs)
@@ -158,46 +170,65 @@ def main(argv: list[str] | None = None) -> list[dict]:
     def workers(k: int) -> str:
         return "in-process" if k == 1 else f"{k} workers"
 
-    cases = [  # (label, workers, torch threads, dummy env)
-        (
-            f"env, {workers(chosen)} (agents.train's choice), {threads} thread",
-            chosen,
-            threads,
-            False,
-        ),
-        (f"dummy env, {workers(chosen)}, {threads} thread", chosen, threads, True),
-        (f"env, {workers(other)}, {threads} thread", other, threads, False),
-        (f"dummy env, {workers(other)}, {threads} thread", other, threads, True),
-        (f"env, {workers(chosen)}, {more} threads", chosen, more, False),
-    ]
+    # (label, workers, torch threads, dummy env, physics); the zero-cost env has no physics.
+    cases = [(f"dummy env, {workers(chosen)}, {threads} thread", chosen, threads, True, None)]
+    cases.append((f"dummy env, {workers(other)}, {threads} thread", other, threads, True, None))
+    for name in args.physics:
+        cases += [
+            (
+                f"env, {workers(chosen)} (agents.train's choice), {threads} thread",
+                chosen,
+                threads,
+                False,
+                name,
+            ),
+            (f"env, {workers(other)}, {threads} thread", other, threads, False, name),
+            (f"env, {workers(chosen)}, {more} threads", chosen, more, False, name),
+        ]
     # Round-robin over the cases, so that a burst of load from elsewhere hits them all alike;
     # each case keeps its fastest run.
-    best = [math.inf] * (len(cases) + 1)
+    best = [math.inf] * len(cases)
+    env_only = dict.fromkeys(args.physics, math.inf)
     for _ in range(args.repeats):
-        for i, (_, k, n_threads, dummy) in enumerate(cases):
-            seconds = time_training(args.algo, args.env, config, k, n_threads, args.steps, dummy)
+        for i, (_, k, n_threads, dummy, name) in enumerate(cases):
+            seconds = time_training(
+                args.algo, args.env, config, k, n_threads, args.steps, dummy, name
+            )
             best[i] = min(best[i], seconds)
-        best[-1] = min(best[-1], time_env_only(args.env, config, chosen, args.steps))
-    labels = [f"train: {case[0]}" for case in cases]
-    labels.append(f"env only, random actions, {workers(chosen)}")
-    rows = [{"case": label, "seconds": seconds} for label, seconds in zip(labels, best)]
+        for name in args.physics:
+            seconds = time_env_only(args.env, config, chosen, args.steps, name)
+            env_only[name] = min(env_only[name], seconds)
+    rows = [
+        {"case": f"train: {case[0]}", "physics": case[4], "seconds": seconds}
+        for case, seconds in zip(cases, best, strict=True)
+    ]
+    rows += [
+        {"case": f"env only, random actions, {workers(chosen)}", "physics": name, "seconds": t}
+        for name, t in env_only.items()
+    ]
 
+    step = "primitives" if args.env in tactile_gym.PRIMITIVE_ENV_IDS else "env steps"
     print(
         f"{args.algo.upper()} on {args.env}, {n_envs} envs, {args.steps} timed env steps, "
-        f"{n_cpus} cores, best of {args.repeats}\n"
+        f"{n_cpus} cores, best of {args.repeats}, load average {os.getloadavg()[0]:.2f}\n"
     )
-    print("| case | env steps/s | ms per env step |\n|---|---:|---:|")
+    print("| case | physics | env steps/s | ms per env step |\n|---|---|---:|---:|")
     for row in rows:
         rate = args.steps / row["seconds"]
-        print(f"| {row['case']} | {rate:,.0f} | {1e3 / rate:.2f} |")
-    t_env, t_dummy = rows[0]["seconds"], rows[1]["seconds"]
-    print(
-        f"\nenv share of training time ({workers(chosen)}): {1.0 - t_dummy / t_env:.0%} "
-        f"(1 - t_dummy / t_env); stepping the env alone takes "
-        f"{rows[-1]['seconds'] / t_env:.0%} of it. {workers(chosen)} is "
-        f"{rows[2]['seconds'] / t_env:.2f}x as fast as {workers(other)}, {threads} torch thread "
-        f"{rows[4]['seconds'] / t_env:.2f}x as fast as {more}."
-    )
+        print(f"| {row['case']} | {row['physics'] or '-'} | {rate:,.0f} | {1e3 / rate:.2f} |")
+    t_dummy = rows[0]["seconds"]
+    print()
+    for name in args.physics:
+        t_env, t_other, t_more = (
+            r["seconds"] for r in rows if r["physics"] == name and r["case"].startswith("train")
+        )
+        print(
+            f"{name}: {args.steps / t_env:,.0f} {step}/s end to end ({workers(chosen)});"
+            f" env share of training time {1.0 - t_dummy / t_env:.0%} (1 - t_dummy / t_env);"
+            f" stepping the env alone takes {env_only[name] / t_env:.0%} of it;"
+            f" {workers(chosen)} is {t_other / t_env:.2f}x as fast as {workers(other)},"
+            f" {threads} torch thread {t_more / t_env:.2f}x as fast as {more}."
+        )
     return rows
 
 

@@ -1,7 +1,7 @@
 """The vector env's throughput against bare physics in the same run (``docs/design.md`` 7.9).
 
     python benchmarks/bench_vector.py [--n-envs 1 4 16 64] [--workers 1 2]
-                                      [--control-steps 800]
+                                      [--control-steps 800] [--physics v2 v3]
                                       [--ids tactile_gym/HingeProbe-v1 ...]
 
 A sub-env's memory and build time, then two tables. The first times bare ``stepSimulation``
@@ -13,7 +13,8 @@ the scripted baseline (``agents.scripted.scripted_policy``, one per sub-env) and
 wall time per sub-env control step as a multiple of bare physics
 (``bench_env.bare_physics_per_control_step`` on a scene of the id made in this process, the
 least of three calls before the row and three after), and sub-env steps/s (primitives for the
-primitive ids).
+primitive ids). Each row runs every contact step of ``--physics`` (the env keyword ``physics``:
+``v2``, the exact step, ``v3``, the lean one, ``docs/design.md`` 3.6) in the same run.
 The first reset and the first step are not timed (a worker's first step loads the compiled
 kernels); ended sub-envs are reset within a step (same-step autoreset, as SB3 trains), so
 those resets are timed with their step.
@@ -37,7 +38,11 @@ import numpy as np  # noqa: E402
 from gymnasium.vector import AutoresetMode  # noqa: E402
 
 from agents.scripted import scripted_policy  # noqa: E402
-from benchmarks.bench_env import BARE_REPEATS, bare_physics_per_control_step  # noqa: E402
+from benchmarks.bench_env import (  # noqa: E402
+    BARE_REPEATS,
+    add_physics_option,
+    bare_physics_per_control_step,
+)
 from tactile_gym import PRIMITIVE_ENV_IDS  # noqa: E402
 from tactile_gym.sim import ObjectConfig  # noqa: E402
 from tactile_gym.sim.objects import HingedObject  # noqa: E402
@@ -106,14 +111,14 @@ def footprint(env_id: str, n: int = 16) -> str:
 
 
 def time_vector(
-    env_id: str, n: int, workers: int, policy: str, control_steps: int
+    env_id: str, n: int, workers: int, policy: str, control_steps: int, physics: str
 ) -> dict[str, float]:
-    """Time ``gym.make_vec(env_id, num_envs=n, workers=workers)`` for about
+    """Time ``gym.make_vec(env_id, num_envs=n, workers=workers, physics=physics)`` for about
     ``control_steps`` sub-env control steps in all."""
     # The scripted policies read only the id's configuration, so one env of the id made here
     # serves them (the sub-envs may be in workers) and the bare physics: the least of three
     # calls before the row and three after, as the least disturbed by other jobs.
-    reference = gym.make(env_id)
+    reference = gym.make(env_id, physics=physics)
     reference.reset(seed=0)
     bare = min(bare_physics_per_control_step(reference) for _ in range(3))
     envs = gym.make_vec(
@@ -122,6 +127,7 @@ def time_vector(
         vectorization_mode="vector_entry_point",
         autoreset_mode=AutoresetMode.SAME_STEP,
         workers=workers,
+        physics=physics,
     )
     primitive = env_id in PRIMITIVE_ENV_IDS
     policies = [scripted_policy(reference) for _ in range(n)]
@@ -182,24 +188,30 @@ def layout_table(sizes: list[int]) -> str:
 
 
 def vector_table(
-    env_id: str, sizes: list[int], worker_counts: list[int], control_steps: int
+    env_id: str,
+    sizes: list[int],
+    worker_counts: list[int],
+    control_steps: int,
+    physics: list[str],
 ) -> str:
     primitive = env_id in PRIMITIVE_ENV_IDS
     step = "primitives" if primitive else "sub-env steps"
     lines = [
         f"`{env_id}`, about {control_steps} sub-env control steps per row; wall time",
         "",
-        f"| N | workers | policy | {step}/s | control steps/s | us per sub-env control step |"
-        " bare physics us per control step | control step / bare physics |",
-        "|---:|---:|---|---:|---:|---:|---:|---:|",
+        f"| N | workers | policy | physics | {step}/s | control steps/s |"
+        " us per sub-env control step | bare physics us per control step |"
+        " control step / bare physics |",
+        "|---:|---:|---|---|---:|---:|---:|---:|---:|",
     ]
     for n in sizes:
-        for workers, policy in itertools.product(worker_counts, ("random", "scripted")):
+        rows = itertools.product(worker_counts, ("random", "scripted"), physics)
+        for workers, policy, name in rows:
             if workers > n:
                 continue
-            r = time_vector(env_id, n, workers, policy, control_steps)
+            r = time_vector(env_id, n, workers, policy, control_steps, name)
             lines.append(
-                f"| {n} | {workers} | {policy} | {r['steps/s']:,.0f} |"
+                f"| {n} | {workers} | {policy} | {name} | {r['steps/s']:,.0f} |"
                 f" {r['control steps/s']:,.0f} |"
                 f" {r['us/control step']:.0f} | {r['bare us/control step']:.1f} |"
                 f" {r['us/control step'] / r['bare us/control step']:.0f}x |"
@@ -217,6 +229,7 @@ def main(argv: list[str] | None = None) -> None:
         "--control-steps", type=int, default=800, help="sub-env control steps per row"
     )
     parser.add_argument("--ids", nargs="+", default=["tactile_gym/HingeProbe-v1"])
+    add_physics_option(parser)
     args = parser.parse_args(argv)
     print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the start\n")
     print(footprint(args.ids[0]))
@@ -224,7 +237,7 @@ def main(argv: list[str] | None = None) -> None:
     print(layout_table(args.n_envs))
     for env_id in args.ids:
         print()
-        print(vector_table(env_id, args.n_envs, args.workers, args.control_steps))
+        print(vector_table(env_id, args.n_envs, args.workers, args.control_steps, args.physics))
     print(f"\nload average {os.getloadavg()[0]:.2f} at the end")
 
 

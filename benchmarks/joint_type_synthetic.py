@@ -7,7 +7,7 @@ table plane; 3D: all at random angles), two edges pressed at each configuration 
 edge and the end edge), the contact anywhere along the edge's middle, the env's noise
 (contact point 1 mm per axis, edge 1-3 deg drawn per draw). ``--motion`` scales the joint's
 sweep over the configurations: 1.0 is 90 deg or 60 mm. The estimator runs with its default
-priors (docs/design.md 6.9) and the Laplace rule, and with BIC for comparison.
+priors (docs/design.md 6.10) and the Laplace rule, and with BIC for comparison.
 
 Prints, per mode:
 
@@ -20,7 +20,7 @@ Prints, per mode:
    only measured edge (which no rule can tell from a rigid link);
 4. the cost of one estimate against ``JointAxisEstimator``'s on the same measurements, in
    the same run, and the models' solver against ``scipy.optimize.least_squares`` on the
-   same problems from the same starts (docs/design.md 6.9 says why the own solver);
+   same problems from the same starts (docs/design.md 6.10 says why the own solver);
 
 then the drawer reproduction (issue 28 item 5, the paper's Table I for a prismatic joint; a
 300 x 200 mm top pulled along its sides, four displacements 10 mm apart, its front and a

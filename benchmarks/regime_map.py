@@ -1,8 +1,10 @@
 """Regime map: when does the edge measured from one wrench hold?
 
 Run: ``python benchmarks/regime_map.py [--quick] [--readings N] [--seed S] [--figure PATH]
-[--save PATH]``. Prints markdown tables and writes ``docs/figures/regime_map.png``;
-``--quick`` runs a coarse grid for iteration. Single process, single thread.
+[--save PATH] [--physics v2|v3]``. Prints markdown tables and writes
+``docs/figures/regime_map.png``; ``--quick`` runs a coarse grid for iteration; ``--physics``
+chooses the contact step (``tactile_gym.sim.scene.PHYSICS``, default v2). Single process,
+single thread.
 
 Three parts: the experiment (``regime_experiment``: probes of the scissors' free link near
 its edge with the shared press, read as the env reads a wrench), the analysis
@@ -72,6 +74,7 @@ from regime_report import (  # noqa: E402
 )
 
 from tactile_gym.sim import ObjectConfig, ProbeScene  # noqa: E402
+from tactile_gym.sim.scene import PHYSICS  # noqa: E402
 
 FIGURE = Path(__file__).resolve().parents[1] / "docs" / "figures" / "regime_map.png"
 
@@ -84,6 +87,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--figure", type=Path, default=FIGURE, help="PNG to write")
     parser.add_argument("--no-figure", action="store_true")
     parser.add_argument("--save", type=Path, default=None, help="pickle the results here")
+    parser.add_argument("--physics", default="v2", choices=PHYSICS, help="the contact step")
     args = parser.parse_args(argv)
     grid = dict(
         OFFSETS=OFFSETS,
@@ -100,7 +104,7 @@ def main(argv: list[str] | None = None) -> None:
     shown = sys.argv[1:] if argv is None else argv
     print(f"`{' '.join(['python', f'benchmarks/{Path(__file__).name}', *shown])}`")
     rng = np.random.default_rng(args.seed)
-    scene = ProbeScene(ObjectConfig.scissors(holding_torque=HELD))
+    scene = ProbeScene(ObjectConfig.scissors(holding_torque=HELD), physics=args.physics)
     offsets, thetas = grid["OFFSETS"], grid["THETAS"]
     shears = shear_map(scene, rng, n_read, FORCES, offsets, thetas)
     obl = oblique_presses(scene, rng, n_read, FORCES, grid["OBLIQUE_OFFSETS"])

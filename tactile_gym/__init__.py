@@ -13,11 +13,13 @@ Importing the package registers its environments with Gymnasium::
 needs neither: the ids are then not registered); the environment modules are only imported
 when an env is made.
 
-The v2 ids are the current ones: a realistic F/T sensor (offset, drift, the fingertip's weight)
-and taring. The v1 ids (``LEGACY_ENV_IDS``: the ideal sensor, a 6-D action, no tare) stay
-registered unchanged, so that models trained on them still run. The v0 ids are retired: their
-skin model gave no edge direction from a pure press and their start pose revealed the edge
-(``docs/design.md``, "Versions").
+The v3 ids are the current ones: the realistic F/T sensor (offset, drift, the fingertip's
+weight) with taring, as v2, on a leaner contact step, with an estimator whose predicted
+uncertainty is calibrated, and a press that measures the skin's force gradient and holds
+until its mean is good enough (``docs/design.md`` 5.2). The v2 and v1 ids
+(``LEGACY_ENV_IDS``; v1: the ideal sensor, a 6-D action, no tare) stay registered
+unchanged, so that models trained on them still run. The v0 ids are retired: their skin
+model gave no edge direction from a pure press and their start pose revealed the edge (``docs/design.md``, "Versions").
 """
 
 __version__ = "0.3.0"
@@ -28,9 +30,21 @@ _PLANAR = {"families": ("scissors",), "estimator": "planar"}
 # still builds it.
 _3D = {"families": ("scissors", "door", "tilted"), "estimator": "3d"}
 
-# v1: the ideal sensor (white noise only), no tare and the gate without the preload rule
-# (docs/design.md 7.2, 10).
+# The adaptive press (docs/design.md 5.2): every skill's press steps by the force gradient it
+# measures, and the gate measures a still press, and a probe holds, until the predicted edge
+# error of its mean is 2 deg (rad here), within 12 readings, its steadiness judged on the trend.
+_ADAPTIVE_PRESS = {
+    "measure_gradient": True,
+    "gate": {"edge_std_target": 0.03490658503988659, "dwell_budget": 12, "steady_rule": "trend"},
+}
+# Each version's keywords over HingeProbeConfig's defaults (docs/design.md 10). v3: the lean
+# contact step (3.6), the calibrated covariance (6.9) and the adaptive press (5.2). v2: the
+# defaults. v1: the ideal sensor (white noise only), no tare and the gate without the preload
+# rule (7.2).
+_V3 = {"physics": "v3", "estimator_covariance": "calibrated", **_ADAPTIVE_PRESS}
 _V1 = {"sensor_model": "ideal", "tare_action": False, "gate": {"preload_rule": False}}
+#: Every registered version, newest first, with its keywords.
+_VERSIONS = (("v3", _V3), ("v2", {}), ("v1", _V1))
 
 _SIX_D = (
     "tactile_gym.envs.hinge_probe:HingeProbeEnv",
@@ -48,16 +62,20 @@ _TASKS = (
     ("HingeProbe3DPrimitive", _PRIMITIVE, _3D),
 )
 
-#: The current environment ids: two tasks (the paper's planar scissors; scissors, doors and
-#: tilted axes with a 3D estimator), each with two action modes on the same physics (6-D
+#: The current environment ids (v3): two tasks (the paper's planar scissors; scissors, doors
+#: and tilted axes with a 3D estimator), each with two action modes on the same physics (6-D
 #: fingertip motions and a tare, or probing primitives that run the former underneath).
-ENV_IDS: tuple[str, ...] = tuple(f"tactile_gym/{name}-v2" for name, _, _ in _TASKS)
-#: The v1 ids, the same tasks with the ideal sensor, no tare and the v1 gate.
-LEGACY_ENV_IDS: tuple[str, ...] = tuple(i.replace("-v2", "-v1") for i in ENV_IDS)
-#: The ids (v2 and v1) whose step is one probing primitive, many control steps long.
+ENV_IDS: tuple[str, ...] = tuple(f"tactile_gym/{name}-v3" for name, _, _ in _TASKS)
+#: The earlier versions' ids, still registered and unchanged to the bit, so that the models
+#: and figures made on them reproduce: v2 (the v2 contact step and the independent
+#: covariance) and v1 (the ideal sensor, no tare, the v1 gate).
+LEGACY_ENV_IDS: tuple[str, ...] = tuple(
+    f"tactile_gym/{name}-{version}" for version, _ in _VERSIONS[1:] for name, _, _ in _TASKS
+)
+#: The ids (every version) whose step is one probing primitive, many control steps long.
 PRIMITIVE_ENV_IDS: tuple[str, ...] = tuple(
     f"tactile_gym/{name}-{version}"
-    for version in ("v2", "v1")
+    for version, _ in _VERSIONS
     for name, entries, _ in _TASKS
     if entries is _PRIMITIVE
 )
@@ -66,7 +84,7 @@ try:
     from gymnasium.envs.registration import register
 except ImportError:  # perception alone, on a robot without Gymnasium: nothing to register
     register = None
-for _version, _extra in (("v2", {}), ("v1", _V1)) if register else ():
+for _version, _extra in _VERSIONS if register else ():
     for _name, (_entry, _vector_entry), _kwargs in _TASKS:
         register(
             id=f"tactile_gym/{_name}-{_version}",

@@ -17,6 +17,8 @@ from tactile_gym.presets import preset_path
 TINY = {
     "ppo": {"n_steps": 16, "batch_size": 16, "n_epochs": 1},
     "sac": {"buffer_size": 1000, "learning_starts": 16, "batch_size": 16},
+    "recurrent_ppo": {"n_steps": 16, "batch_size": 16, "n_epochs": 1},
+    "tqc": {"buffer_size": 1000, "learning_starts": 16, "batch_size": 16},
 }
 
 
@@ -254,10 +256,10 @@ def test_rl_zoo3_reads_our_hyperparameters(algo, env_id, tmp_path):
 
     pytest.importorskip("rl_zoo3")
     from rl_zoo3.exp_manager import ExperimentManager
-    from stable_baselines3 import PPO, SAC
 
     path = str(preset_path("train", algo))
-    manager = ExperimentManager(argparse.Namespace(), algo, env_id, str(tmp_path), config=path,
+    zoo_algo = hyperparams.ZOO_NAMES.get(algo, algo)
+    manager = ExperimentManager(argparse.Namespace(), zoo_algo, env_id, str(tmp_path), config=path,
                                 verbose=0)  # fmt: skip
     theirs, _ = manager.read_hyperparameters()
     kwargs, *_ = manager._preprocess_hyperparams(dict(theirs))
@@ -267,7 +269,7 @@ def test_rl_zoo3_reads_our_hyperparameters(algo, env_id, tmp_path):
     assert manager.n_envs == ours["n_envs"]
     assert manager.normalize == ours["normalize"]
     assert manager.env_kwargs == ours.get("env_kwargs", {})
-    constructor = inspect.signature({"ppo": PPO, "sac": SAC}[algo]).parameters
+    constructor = inspect.signature(hyperparams.algorithm_class(algo)).parameters
     assert set(kwargs) <= set(constructor)
     assert set(hyperparams.algo_kwargs(ours)) | {"policy"} == set(kwargs)
 
@@ -280,13 +282,14 @@ def test_rl_zoo3_trains_with_our_config(algo, tmp_path):
 
     pytest.importorskip("rl_zoo3")
     tiny = [f"{k}:{v}" for k, v in TINY[algo].items()]
-    command = [sys.executable, "-m", "rl_zoo3.train", "--algo", algo, "--env",
+    zoo_algo = hyperparams.ZOO_NAMES.get(algo, algo)
+    command = [sys.executable, "-m", "rl_zoo3.train", "--algo", zoo_algo, "--env",
                cli.DEFAULT_ENV_ID, "--gym-packages", "tactile_gym", "-conf",
                str(preset_path("train", algo)), "-n", "64", "--eval-freq", "-1", "-f",
                str(tmp_path), "-params", *tiny]  # fmt: skip
     result = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr[-3000:]
-    (model,) = (tmp_path / algo).glob("*/*.zip")
+    (model,) = (tmp_path / zoo_algo).glob("*/*.zip")
     assert (model.parent / model.stem / "vecnormalize.pkl").exists()
     # agents.evaluate reads rl_zoo3's run layout too, whose files are pickles: only trusted.
     with pytest.raises(ValueError, match="rl_zoo3 run"):

@@ -191,7 +191,10 @@ def test_the_algorithm_comes_from_the_models_zip(tmp_path):
     assert runs.saved_algo(sac) == "sac"
     assert runs.model_run(sac).algo == "sac"  # no run config beside it
     assert runs.saved_algo(model_zip("td3.zip", "stable_baselines3.td3.policies")) == "td3"
-    with pytest.raises(ValueError, match="PPO and SAC"):
+    assert runs.saved_algo(model_zip("tqc.zip", "sb3_contrib.tqc.policies")) == "tqc"
+    recurrent = model_zip("lstm.zip", "sb3_contrib.common.recurrent.policies")
+    assert runs.saved_algo(recurrent) == "recurrent_ppo"
+    with pytest.raises(ValueError, match="ppo, sac, recurrent_ppo, tqc"):
         runs.saved_algo(model_zip("other.zip", "sb3.dqn"))
     (tmp_path / "junk.zip").write_text("not a zip")
     with pytest.raises(ValueError, match="damaged or not a zip"):

@@ -8,7 +8,14 @@ import pytest
 
 import tactile_gym  # noqa: F401 - registers the envs
 from agents import demos as demos_module
-from agents.demos import EPISODE_FIELDS, STEP_FIELDS, load_demos, record_demos, save_demos
+from agents.demonstrations import (
+    EPISODE_FIELDS,
+    STEP_FIELDS,
+    load_demos,
+    record_demos,
+    save_demos,
+    save_minari,
+)
 
 ENV_ID = "tactile_gym/HingeProbePrimitive-v2"
 SHORT = {"max_primitives": 6}
@@ -40,7 +47,11 @@ def test_round_trip_keeps_shapes_seeds_and_meta(recorded):
     assert np.flatnonzero(ends).tolist() == [
         int(np.flatnonzero(demos.episode == k)[-1]) for k in range(2)
     ]
-    assert demos.meta == {"env_id": ENV_ID, "env_kwargs": SHORT, "policy": "scripted"}
+    assert demos.meta == {
+        "env_id": ENV_ID,
+        "env_kwargs": SHORT,
+        "policy": "scripted",
+    }
     env.close()
 
 
@@ -89,3 +100,33 @@ def test_bad_input_is_refused(tmp_path):
     np.savez(tmp_path / "other.npz", x=np.zeros(3))
     with pytest.raises(ValueError, match="lacks"):
         load_demos(tmp_path / "other.npz")
+
+
+def test_demos_as_a_minari_dataset_that_minari_loads(recorded, tmp_path, monkeypatch):
+    """Farama's dataset format: minari.load_dataset reads the demonstrations back, episode by
+    episode, with the last observation, and recovers the env with its keywords."""
+    minari = pytest.importorskip("minari", reason="Minari is in the [clients] extra")
+    pytest.importorskip("h5py", reason="Minari's HDF5 storage is in the [clients] extra")
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
+    demos = load_demos(recorded)
+    dataset_id = "tactile_gym/HingeProbePrimitive-v2/scripted-v0"
+    save_minari(demos, dataset_id)
+    dataset = minari.load_dataset(dataset_id)
+    assert dataset.total_episodes == 2 and dataset.total_steps == len(demos)
+    for episode in dataset.iterate_episodes():
+        rows = demos.episode == episode.id
+        np.testing.assert_array_equal(episode.actions, demos.acts[rows])
+        np.testing.assert_array_equal(episode.rewards, demos.rews[rows])
+        np.testing.assert_array_equal(episode.terminations, demos.terminated[rows])
+        for key, steps in demos.obs.items():
+            np.testing.assert_array_equal(episode.observations[key][:-1], steps[rows])
+            np.testing.assert_array_equal(
+                episode.observations[key][-1], demos.final_obs[key][episode.id]
+            )
+    env = dataset.recover_environment()
+    assert env.spec.id == ENV_ID and env.spec.kwargs["max_primitives"] == SHORT["max_primitives"]
+    obs, _ = env.reset(seed=int(demos.seeds[0]))
+    first = dataset[0].observations
+    for key in obs:
+        np.testing.assert_array_equal(obs[key], first[key][0])
+    env.close()

@@ -1,6 +1,6 @@
 """Refactors keep behaviour: fixed-seed rollouts of every v2 and v1 id match a recording.
 
-``tests/data/rollouts.npz`` holds, for every v2 and v1 id (``ENV_IDS``, ``LEGACY_ENV_IDS``)
+``tests/data/rollouts.npz`` holds, for every v2 and v1 id (``LEGACY_ENV_IDS``)
 and two seeds, the scripted policy's and a random policy's episodes (observations, rewards,
 terminations and the errors in ``info``): the v1 ids' recorded on main before the probing
 stack was restructured, the v2 ids' before the perception layer moved out of the env. A
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from agents.scripted import scripted_policy
-from tactile_gym import ENV_IDS, LEGACY_ENV_IDS
+from tactile_gym import LEGACY_ENV_IDS
 
 RECORDING = Path(__file__).parent / "data" / "rollouts.npz"
 SEEDS = (0, 1)
@@ -64,7 +64,7 @@ def rollout(env_id: str, policy: str, seed: int) -> dict[str, np.ndarray]:
 
 CASES = [
     (env_id, policy, seed)
-    for env_id in (*ENV_IDS, *LEGACY_ENV_IDS)
+    for env_id in LEGACY_ENV_IDS
     for policy in ("scripted", "random")
     for seed in SEEDS
 ]

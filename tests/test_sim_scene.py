@@ -8,6 +8,7 @@ import pytest
 
 from tactile_gym.sensing import estimate_contact
 from tactile_gym.sim import ObjectConfig, ProbeScene
+from tactile_gym.sim.scene import PHYSICS
 from tactile_gym.spatial import matrix_to_quaternion, quaternion_to_matrix
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])
@@ -31,9 +32,9 @@ def angle_deg(a, b) -> float:
     return float(np.rad2deg(np.arccos(min(1.0, abs(a @ b) / np.linalg.norm(a)))))
 
 
-@pytest.fixture(scope="module")
-def scene():
-    s = ProbeScene(ObjectConfig.scissors())
+@pytest.fixture(scope="module", params=PHYSICS)
+def scene(request):
+    s = ProbeScene(ObjectConfig.scissors(), physics=request.param)
     yield s
     s.close()
 
@@ -138,9 +139,9 @@ def test_push_rotates_link_about_true_axis(scene):
     assert along[-1] - along[0] > 0.004  # ... and slides along it
 
 
-def random_run(steps: int, seed: int) -> tuple[np.ndarray, list[np.ndarray]]:
+def random_run(steps: int, seed: int, physics: str) -> tuple[np.ndarray, list[np.ndarray]]:
     rng = np.random.default_rng(seed)
-    s = ProbeScene(ObjectConfig.scissors())
+    s = ProbeScene(ObjectConfig.scissors(), physics=physics)
     ep, ed = s.edge_line
     g = s.geometry
     home = ep + 0.05 * ed + [0.0, -0.005, g.outer_radius + g.cylinder_length - 0.002]
@@ -162,20 +163,23 @@ def random_run(steps: int, seed: int) -> tuple[np.ndarray, list[np.ndarray]]:
     return out, reads
 
 
-def test_stability_short_random_motion():
-    reads, _ = random_run(1200, seed=1)
+@pytest.mark.parametrize("physics", PHYSICS)
+def test_stability_short_random_motion(physics):
+    reads, _ = random_run(1200, seed=1, physics=physics)
     assert np.abs(reads[:, :3]).max() < 30.0
 
 
 @pytest.mark.slow
-def test_stability_10000_steps():
-    reads, _ = random_run(10_000, seed=2)
+@pytest.mark.parametrize("physics", PHYSICS)
+def test_stability_10000_steps(physics):
+    reads, _ = random_run(10_000, seed=2, physics=physics)
     assert np.abs(reads[:, :3]).max() < 30.0
 
 
-def test_same_seed_same_wrenches():
-    a, _ = random_run(360, seed=7)
-    b, _ = random_run(360, seed=7)
+@pytest.mark.parametrize("physics", PHYSICS)
+def test_same_seed_same_wrenches(physics):
+    a, _ = random_run(360, seed=7, physics=physics)
+    b, _ = random_run(360, seed=7, physics=physics)
     np.testing.assert_array_equal(a, b)
     assert np.abs(a[:, :3]).max() > 0.5  # the run did touch the object
 
@@ -194,20 +198,22 @@ def test_reset_rebuilds_object_and_renders(scene):
     np.testing.assert_allclose(scene.sensor_to_world_vector([0, 0, 1]), [0, 0, -1], atol=1e-12)
 
 
-def test_close_is_idempotent():
-    s = ProbeScene(ObjectConfig.lid())
+@pytest.mark.parametrize("physics", PHYSICS)
+def test_close_is_idempotent(physics):
+    s = ProbeScene(ObjectConfig.lid(), physics=physics)
     s.close()
     s.close()
     with pytest.raises(RuntimeError):
         s.control_step([0, 0, 0.2], DOWN)
 
 
-def test_orientation_as_matrix_or_quaternion_gives_the_same_steps():
+@pytest.mark.parametrize("physics", PHYSICS)
+def test_orientation_as_matrix_or_quaternion_gives_the_same_steps(physics):
     """control_step and reset take a (3, 3) rotation or a quaternion (x, y, z, w): the same
     pose gives the same motion and wrench, to the last bit."""
     runs = []
     for as_matrix in (False, True):
-        s = ProbeScene(ObjectConfig.scissors())
+        s = ProbeScene(ObjectConfig.scissors(), physics=physics)
         ep, ed = s.edge_line
         g = s.geometry
         home = ep + 0.05 * ed + [0.0, -0.003, g.outer_radius + g.cylinder_length + 0.001]
@@ -253,11 +259,12 @@ def test_primitives_carry_their_pybullet_ids(scene):
     np.testing.assert_allclose(hi, obj.free_box.center + ext, atol=1e-6)
 
 
-def test_free_air_steps_are_physics_only(monkeypatch):
+@pytest.mark.parametrize("physics", PHYSICS)
+def test_free_air_steps_are_physics_only(monkeypatch, physics):
     """While no node can reach anything the skin is skipped and the empty broad phase is
     reused; once the motion can close the gap, the skin runs and finds the contact."""
-    s = ProbeScene(ObjectConfig.scissors())
-    calls = {"select": 0, "substep": 0}
+    s = ProbeScene(ObjectConfig.scissors(), physics=physics)
+    calls = {"select": 0, "narrow": 0}
     for name in calls:
         method = getattr(s.skin, name)
 
@@ -270,19 +277,40 @@ def test_free_air_steps_are_physics_only(monkeypatch):
     top = g.cylinder_length + g.outer_radius
     high = np.array([0.25, -0.15, top + 0.03])
     s.reset(0.0, high, DOWN)
-    calls.update(select=0, substep=0)
-    for k in range(10):
-        s.control_step(high + [0.0005 * k, 0.0, 0.0], DOWN)
+    calls.update(select=0)
+    infos = [s.control_step(high + [0.0005 * k, 0.0, 0.0], DOWN) for k in range(10)]
     # 3 cm above the table: one selection (empty, valid until the fingertip has moved its
     # clearance) and none of the skin's substeps.
-    assert calls == {"select": 1, "substep": 0}
+    assert calls == {"select": 1, "narrow": 0}
+    assert sum(info.skin_substeps for info in infos) == 0
     assert s.skin.n_active == 0 and not np.any(s.true_wrench)
     np.testing.assert_allclose(s.fingertip_position, high + [0.0045, 0.0, 0.0], atol=1e-15)
     # Down onto the table, 2 mm per step: the skin wakes up in time and the table pushes back.
     pos = s.fingertip_position
+    evaluated = 0
     while pos[2] > top - 0.001:
         pos = pos - [0.0, 0.0, 0.002]
-        s.control_step(pos, DOWN)
-    assert calls["substep"] > 0
+        evaluated += s.control_step(pos, DOWN).skin_substeps
+    assert evaluated > 0
     assert s.true_wrench[2] < -1.0  # the table pushes the fingertip up: sensor z is down
     s.close()
+
+
+def test_v3_skips_the_substeps_of_a_settled_still_press():
+    """Held still on the table, the v3 step evaluates the skin twice per control step: the
+    second evaluation finds the state the first committed, so the other ten would repeat it
+    (docs/design.md 3.6); the v2 step evaluates all twelve. The wrench is the same."""
+    wrenches, counts = [], []
+    for physics in PHYSICS:
+        with ProbeScene(ObjectConfig.scissors(), physics=physics) as s:
+            g = s.geometry
+            top = g.cylinder_length + g.outer_radius
+            spot = np.array([0.25, -0.15, top + 0.001])
+            s.reset(0.0, spot, DOWN)
+            for k in range(10):
+                s.control_step(spot - [0.0, 0.0, 0.0002 * k], DOWN)
+            infos = [s.control_step(spot - [0.0, 0.0, 0.0018], DOWN) for _ in range(5)]
+            counts.append([info.skin_substeps for info in infos])
+            wrenches.append(s.true_wrench)
+    assert counts == [[12] * 5, [2] * 5]
+    np.testing.assert_allclose(wrenches[1], wrenches[0], rtol=1e-12, atol=1e-15)

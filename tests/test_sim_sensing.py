@@ -17,6 +17,7 @@ import pytest
 
 from tactile_gym.sensing import PressConfig, PressController, estimate_contact, run_press
 from tactile_gym.sim import ObjectConfig, ProbeScene
+from tactile_gym.sim.scene import PHYSICS
 from tactile_gym.spatial import matrix_to_quaternion, z_to
 
 ALONG = 0.05  # m, probe position along the edge from the pin
@@ -25,10 +26,10 @@ ALONG = 0.05  # m, probe position along the edge from the pin
 PRESS = PressConfig(tolerance=0.1, max_step=0.0001, stiffness=12000.0, dwell=2, reach=0.004)
 
 
-@pytest.fixture(scope="module")
-def scene():
+@pytest.fixture(scope="module", params=PHYSICS)
+def scene(request):
     # Held firmly: the presses here must not turn the link.
-    s = ProbeScene(ObjectConfig.scissors(holding_torque=1.0))
+    s = ProbeScene(ObjectConfig.scissors(holding_torque=1.0), physics=request.param)
     yield s
     s.close()
 

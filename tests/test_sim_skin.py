@@ -7,16 +7,24 @@ import multiprocessing
 import numpy as np
 import pytest
 
-from tactile_gym.sim import ObjectConfig, ProbeScene, SkinConfig, _kernels, _pose_kernels
+from tactile_gym.sim import (
+    ObjectConfig,
+    ProbeScene,
+    SkinConfig,
+    _kernels,
+    _pose_kernels,
+    _step_kernels,
+)
+from tactile_gym.sim.scene import PHYSICS
 from tactile_gym.spatial import rotation_z, rotvec_to_matrix
 
 DOWN = np.array([1.0, 0.0, 0.0, 0.0])  # sensor z along world -z
 FAR = np.array([0.25, -0.15])  # table spot far from the object, m
 
 
-@pytest.fixture(scope="module")
-def scene():
-    s = ProbeScene(ObjectConfig.scissors())
+@pytest.fixture(scope="module", params=PHYSICS)
+def scene(request):
+    s = ProbeScene(ObjectConfig.scissors(), physics=request.param)
     yield s
     s.close()
 
@@ -154,8 +162,8 @@ def test_reaction_is_consistent_and_contact_views_match(scene):
     assert not c.shell_contact
 
 
-def _press_in_worker(depth: float) -> np.ndarray:
-    with ProbeScene(ObjectConfig.scissors()) as s:
+def _press_in_worker(depth: float, physics: str) -> np.ndarray:
+    with ProbeScene(ObjectConfig.scissors(), physics=physics) as s:
         _press_table(s, depth, steps=4)
         return s.true_wrench
 
@@ -164,14 +172,22 @@ def test_kernels_compile_once_and_work_in_spawned_workers(scene):
     """Stable argument types: one compiled signature per kernel; a spawned process (as in an
     async vector env) gets the same wrench."""
     _press_table(scene, 0.001, steps=4)
-    for kernel in (_kernels.select, _kernels.evaluate, _kernels.commit, _kernels.substep):
+    for kernel in (_kernels.select, _kernels.evaluate, _kernels.commit):
         assert len(kernel.signatures) == 1, kernel
-    for kernel in (_pose_kernels.advance, _pose_kernels.link_pose):  # compiled when first needed
+    step = _kernels.substep if scene.physics == "v2" else _step_kernels.control_step
+    assert len(step.signatures) == 1
+    compiled_when_needed = (
+        _pose_kernels.advance,
+        _pose_kernels.link_pose,
+        _step_kernels.narrow,
+        _step_kernels.hinge_step,
+    )
+    for kernel in compiled_when_needed:
         assert len(kernel.signatures) <= 1, kernel
     ctx = multiprocessing.get_context("spawn")
     with ctx.Pool(1) as pool:
-        remote = pool.apply(_press_in_worker, (0.001,))
-    np.testing.assert_array_equal(remote, _press_in_worker(0.001))
+        remote = pool.apply(_press_in_worker, (0.001, scene.physics))
+    np.testing.assert_array_equal(remote, _press_in_worker(0.001, scene.physics))
 
 
 @pytest.mark.parametrize("keys", ["spread", "rounded", "equal", "empty"])
@@ -212,3 +228,24 @@ def test_substep_pose_arithmetic_is_numpys_to_the_bit():
         _pose_kernels.advance(moved, step, True, 1)
         np.testing.assert_array_equal(moved[:3], step[:3] @ tip[:3])
         np.testing.assert_array_equal(moved[3], tip[3] + step[3])
+
+
+def test_a_narrowed_broad_phase_is_the_fresh_one():
+    """``SoftSkin.narrow`` (the v3 step's broad phase, made again from its own candidates after
+    the fingertip moved s) finds what ``select`` finds afresh with the reach less s: the same
+    candidates, distances and order."""
+    with ProbeScene(ObjectConfig.scissors()) as s:
+        skin, prims = s.skin, s._prims
+        ep, ed = s.edge_line
+        g = s.geometry
+        start = ep + 0.05 * ed + [0.0, 0.003, g.outer_radius + g.cylinder_length + 0.001]
+        rotation = np.diag([1.0, -1.0, -1.0])
+        sel = skin.select(prims, rotation, start, 0.004)
+        moved = 0.0015
+        after = start + moved * np.array([0.6, 0.0, -0.8])
+        narrowed = skin.narrow(sel, prims, rotation, after, sel.reach - moved)
+        fresh = skin.select(prims, rotation, after, sel.reach - moved - skin.config.margin)
+        assert 100 < len(narrowed.nodes) < len(sel.nodes)
+        np.testing.assert_array_equal(narrowed.nodes, fresh.nodes)
+        np.testing.assert_array_equal(narrowed.distance, fresh.distance)
+        np.testing.assert_array_equal(narrowed.points, fresh.points)

@@ -210,7 +210,7 @@ def test_scripted_never_tares_in_contact(env_id):
 
 
 def test_v1_ids_keep_the_ideal_sensor_and_no_tare():
-    for env_id in tactile_gym.LEGACY_ENV_IDS:
+    for env_id in [i for i in tactile_gym.LEGACY_ENV_IDS if i.endswith("-v1")]:
         env = gym.make(env_id)
         base = env.unwrapped
         base = base.control_env if env.action_space.shape == (3,) else base

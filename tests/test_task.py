@@ -152,3 +152,18 @@ def test_the_predicted_reward_scores_the_estimators_own_uncertainty_not_the_trut
 def test_the_reward_source_is_validated():
     with pytest.raises(ValueError, match="reward_source"):
         TaskConfig(reward_source="oracle")
+
+
+def test_the_workspace_is_centred_on_the_hinge_or_where_the_episode_started():
+    """workspace_center='start' judges the fingertip's distance from its start (what a robot
+    knows), not from the true hinge."""
+    far_from_hinge = facts(hinge_distance=0.3, start_distance=0.1)
+    far_from_start = facts(hinge_distance=0.1, start_distance=0.3)
+    hinge = AxisEstimationTask(TaskConfig())
+    start = AxisEstimationTask(TaskConfig(workspace_center="start"))
+    assert hinge.get_termination(far_from_hinge)["left_workspace"]
+    assert not hinge.get_termination(far_from_start)["left_workspace"]
+    assert start.get_termination(far_from_start)["left_workspace"]
+    assert not start.get_termination(far_from_hinge)["left_workspace"]
+    with pytest.raises(ValueError, match="workspace_center"):
+        TaskConfig(workspace_center="table")

@@ -24,12 +24,12 @@ from tactile_gym.envs.scenarios import (
     sample_scenario,
 )
 from tactile_gym.envs.task import TaskConfig
-from tactile_gym.estimation import LOSSES, AxisPrior, JointAxisEstimator
+from tactile_gym.estimation import COVARIANCES, LOSSES, AxisPrior, JointAxisEstimator
 from tactile_gym.perception import GateConfig, MeasurementPipeline, StreamLimits
 from tactile_gym.perception.log import LogHeader
 from tactile_gym.sensing import SENSOR_MODELS, FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, SkinConfig
-from tactile_gym.sim.scene import FORCE_LIMIT
+from tactile_gym.sim.scene import FORCE_LIMIT, PHYSICS
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP
 from tactile_gym.validation import (
     build_config,
@@ -57,6 +57,10 @@ class HingeProbeConfig:
         families: object families drawn at reset, from ``scissors, door, lid, tilted``.
         estimator: ``"planar"`` (axis along world z, paper eq. 16-21) or ``"3d"``.
         estimator_loss: robust loss of the estimator (``tactile_gym.estimation.LOSSES``).
+        estimator_covariance: what the estimator takes each measurement's handed noise for
+            (``tactile_gym.estimation.COVARIANCES``): ``"independent"`` (the v2 and v1 ids')
+            or ``"calibrated"`` (with the systematic parts of a press's error,
+            ``docs/design.md`` 6.9; the v3 ids').
         observation_mode: ``"dict"`` or ``"flat"`` (one Box in the order of
             ``tactile_gym.envs.observation.OBSERVATION_LAYOUT``).
         max_steps: control steps before the episode is truncated.
@@ -76,12 +80,15 @@ class HingeProbeConfig:
         measure_gradient: the skills' presses step by the force gradient they measure
             (``PressConfig.measure_gradient``, ``docs/design.md`` 5.2) rather than the one
             they assume; how long a probe holds follows the gate (``gate.edge_std_target``).
+        physics: the contact step, from ``tactile_gym.sim.scene.PHYSICS``: ``"v2"`` (the v1
+            and v2 ids') or ``"v3"`` (the lean step, ``docs/design.md`` 3.6).
         skin, sensor, object, gate, task, scenario: nested overrides (above).
     """
 
     families: tuple[str, ...] = ("scissors",)
     estimator: str = "planar"
     estimator_loss: str = "soft_l1"
+    estimator_covariance: str = "independent"
     observation_mode: str = "dict"
     max_steps: int = 400
     time_step: float = TIME_STEP
@@ -93,6 +100,7 @@ class HingeProbeConfig:
     sensor_model: str = "realistic"
     tare_action: bool = True
     measure_gradient: bool = False
+    physics: str = "v2"
     skin: dict = field(default_factory=dict)
     sensor: dict = field(default_factory=dict)
     object: dict = field(default_factory=dict)
@@ -109,6 +117,7 @@ class HingeProbeConfig:
         object.__setattr__(self, "families", tuple(families))
         check_choice("estimator", self.estimator, ("planar", "3d"))
         check_choice("estimator_loss", self.estimator_loss, LOSSES)
+        check_choice("estimator_covariance", self.estimator_covariance, COVARIANCES)
         check_choice("observation_mode", self.observation_mode, ("dict", "flat"))
         if self.estimator == "planar" and set(self.families) - {"scissors"}:
             raise ValueError(
@@ -125,6 +134,7 @@ class HingeProbeConfig:
         check_choice("sensor_model", self.sensor_model, SENSOR_MODELS)
         check_bool("tare_action", self.tare_action)
         check_bool("measure_gradient", self.measure_gradient)
+        check_choice("physics", self.physics, PHYSICS)
         # Build every nested config here, once (each is cached), so that a bad field fails at
         # construction.
         self.skin_config  # noqa: B018
@@ -202,7 +212,12 @@ class HingeProbeConfig:
             self.sensor_config,
             self.skin_config.normal_stiffness,
             self.gate_config,
-            JointAxisEstimator(mode=self.estimator, loss=self.estimator_loss, prior=prior),
+            JointAxisEstimator(
+                mode=self.estimator,
+                loss=self.estimator_loss,
+                prior=prior,
+                covariance=self.estimator_covariance,
+            ),
             edge_distance,
             StreamLimits(period=self.time_step * self.substeps),
         )
@@ -217,7 +232,11 @@ class HingeProbeConfig:
             fingertip=dataclasses.asdict(geometry),
             sensor=dataclasses.asdict(self.sensor_config),
             gate=dataclasses.asdict(self.gate_config),
-            estimator={"mode": self.estimator, "loss": self.estimator_loss},
+            estimator={
+                "mode": self.estimator,
+                "loss": self.estimator_loss,
+                "covariance": self.estimator_covariance,
+            },
             prior={
                 "pin": prior.pin.tolist(),
                 "pin_cov": prior.pin_cov.tolist(),

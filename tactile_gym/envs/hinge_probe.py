@@ -164,7 +164,8 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
 
     * ``terminated`` (failure), each reason a boolean ``info["termination_<reason>"]``
       (``TERMINATION_REASONS``): the fingertip's sensor origin leaves the workspace
-      (``left_workspace``: ``task.workspace_radius`` from the hinge pin), the rigid shell
+      (``left_workspace``: ``task.workspace_radius`` from the hinge pin, or from where it
+      started with ``task={"workspace_center": "start"}``), the rigid shell
       bottoms out through the skin (``shell_contact``), or the force exceeds
       ``task.hard_force_limit`` (``overloaded``).
     * ``truncated``: after ``max_steps`` control steps (the env counts them itself, so that
@@ -200,6 +201,10 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
 
     ## Version History
 
+    * v3: the v3 contact step (``physics="v3"``, ``docs/design.md`` 3.6: one compiled call
+      per control step, the joint integrated in it; trajectories held to bounds of v2's, not to
+      its bits) and the calibrated covariance (``estimator_covariance="calibrated"``, 6.9: the
+      ``estimate`` entry's stds are honest). The v2 and v1 ids stay registered unchanged.
     * 0.4 (no new version: observations, rewards and dynamics are unchanged): ``info`` is flat
       and numeric (``termination_<reason>`` flags replace the ``termination`` dict; NumPy
       scalars), the same keys at reset and step; ``env.spec.max_episode_steps`` is
@@ -267,6 +272,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
                 substeps=cfg.substeps,
                 force_limit=cfg.force_limit,
                 gui=self.render_mode == "human",
+                physics=cfg.physics,
             )
         self._scene.reset(
             scenario.joint_angle,
@@ -276,6 +282,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
             rng=self.np_random,
         )
         self._steps = 0
+        self._start_position = self._scene.fingertip_position
         # Every episode starts in free air (2-5 mm above the face, "Starting State"): the
         # operator's tare there needs no knowledge of contact.
         perceived = self.pipeline.reset(self._sample(None, cfg.tare_action))
@@ -399,6 +406,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
             force_limit=float(self._scene.force_limit),
             shell_contact=step_info is not None and bool(step_info.shell_contact),
             hinge_distance=norm(self._scene.fingertip_position - pin),
+            start_distance=norm(self._scene.fingertip_position - self._start_position),
             action=action,
             measurements=len(self.pipeline.measurements),
             position_std=estimate.position_std,

@@ -43,6 +43,7 @@ from tactile_gym.validation import check_choice, check_number
 __all__ = [
     "AxisEstimationTask",
     "REWARD_SOURCES",
+    "WORKSPACE_CENTERS",
     "REWARD_TERMS",
     "StepFacts",
     "TaskConfig",
@@ -59,6 +60,8 @@ REWARD_TERMS = (
 
 #: What the reward's error reduction can score (``TaskConfig.reward_source``).
 REWARD_SOURCES = ("truth", "predicted")
+#: Where the workspace is centred (``TaskConfig.workspace_center``).
+WORKSPACE_CENTERS = ("hinge", "start")
 
 #: Why an episode can end as a failure, in the order they are checked.
 TERMINATION_REASONS = ("left_workspace", "shell_contact", "overloaded")
@@ -78,7 +81,10 @@ class TaskConfig:
         success_angle: angle error below which the episode counts as a success, rad.
         hard_force_limit: force that ends the episode as a failure, N.
         workspace_radius: the episode fails when the sensor origin is further than this from
-            the hinge pin, m.
+            the workspace's centre, m.
+        workspace_center: that centre: ``"hinge"``, the true hinge pin, or ``"start"``, the
+            sensor origin where the episode started (what a robot knows: with
+            ``reward_source="predicted"`` nothing of the task then reads the truth).
         termination_penalty: reward lost by the step that ends the episode as a failure
             (``TERMINATION_REASONS``), in units of reward (1 = ``error_scale`` of error).
         prior_error: the error E counts as while no measurement has entered the estimate,
@@ -96,6 +102,7 @@ class TaskConfig:
     success_angle: float = float(np.deg2rad(2.0))
     hard_force_limit: float = 30.0
     workspace_radius: float = 0.25
+    workspace_center: str = "hinge"
     termination_penalty: float = 0.0
     prior_error: float | None = None
     reward_source: str = "truth"
@@ -110,6 +117,7 @@ class TaskConfig:
         check_number("task.success_angle", self.success_angle, 0.0, np.pi / 2, low_open=True)
         check_number("task.hard_force_limit", self.hard_force_limit, 1.0, 200.0)
         check_number("task.workspace_radius", self.workspace_radius, 0.05, 1.0)
+        check_choice("task.workspace_center", self.workspace_center, WORKSPACE_CENTERS)
         check_number("task.termination_penalty", self.termination_penalty, 0.0, 100.0)
         if self.prior_error is not None:
             check_number("task.prior_error", self.prior_error, 0.0, self.error_cap, low_open=True)
@@ -127,6 +135,7 @@ class StepFacts:
         force_limit: the guarded move's limit, where the force penalty starts, N.
         shell_contact: the object reached the rigid shell through the skin.
         hinge_distance: distance of the fingertip's sensor origin from the hinge pin, m.
+        start_distance: its distance from where it started the episode, m.
         action: the normalised action.
         measurements: measurements in the estimate (0: it is the prior).
         position_std: the estimate's predicted position error (1 sigma), m.
@@ -143,6 +152,7 @@ class StepFacts:
     measurements: int
     position_std: float = float("inf")
     angle_std: float = float("inf")
+    start_distance: float = 0.0
 
 
 class AxisEstimationTask:
@@ -194,10 +204,15 @@ class AxisEstimationTask:
     def get_termination(self, facts: StepFacts) -> dict[str, bool]:
         """Each failure reason (``TERMINATION_REASONS``) and whether it happened."""
         return {
-            "left_workspace": bool(facts.hinge_distance > self.config.workspace_radius),
+            "left_workspace": bool(self._workspace_distance(facts) > self.config.workspace_radius),
             "shell_contact": bool(facts.shell_contact),
             "overloaded": bool(facts.max_force > self.config.hard_force_limit),
         }
+
+    def _workspace_distance(self, facts: StepFacts) -> float:
+        if self.config.workspace_center == "start":
+            return facts.start_distance
+        return facts.hinge_distance
 
     def info(
         self,

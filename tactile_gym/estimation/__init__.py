@@ -11,14 +11,16 @@ edge), e.g. ``var_in g g^T + var_out n n^T`` for a skin normal n and ``g = n x e
 * :func:`fit_axis_planar` - the paper's proposed method for an axis along z (eq. 16-21);
 * :func:`fit_axis_simple` - the paper's perpendicular-bisector baseline (eq. 22-26);
 * :func:`fit_axis_3d` - any axis direction (eq. 3, 8, 9-10), robust losses, covariance;
-* :class:`JointAxisEstimator` - the online, weighted estimator;
+* :class:`JointAxisEstimator` - the online, weighted estimator; its ``covariance`` (one of
+  ``COVARIANCES``) takes the handed noise as independent (``"independent"``) or adds the
+  systematic parts of a press's error (``"calibrated"``, docs/design.md 6.9);
 * :class:`AxisPrior` - a Gaussian prior on the axis that the fits and the estimator fuse
   with the measurements (maximum a posteriori);
 * :func:`axis_error` - position and angle error against the truth (docs/design.md 6.7);
 * :func:`axis_nees` - normalised estimation error squared of an estimate's covariance;
 * :class:`JointTypeEstimator` / :func:`estimate_joint_type` - which joint it is (rigid,
   revolute, prismatic, or none of them), from the same measurements labelled by edge line
-  and link configuration (docs/design.md 6.9), with one :class:`JointModel` per type
+  and link configuration (docs/design.md 6.10), with one :class:`JointModel` per type
   (:class:`RigidModel`, :class:`RevoluteModel`, :class:`PrismaticModel`) and the priors of
   :class:`JointTypePrior`;
 * :func:`fit_slide_direction` / :func:`fit_slide_simple` - a prismatic joint's direction from
@@ -47,7 +49,7 @@ from tactile_gym.estimation.joint_type import (
     estimate_joint_type,
 )
 from tactile_gym.estimation.metrics import axis_error, axis_nees
-from tactile_gym.estimation.online import JointAxisEstimator
+from tactile_gym.estimation.online import COVARIANCES, JointAxisEstimator
 from tactile_gym.estimation.planar import edge_rotation_variance, planar_residual_variance
 from tactile_gym.estimation.prior import AxisPrior
 from tactile_gym.estimation.robust import LOSSES
@@ -59,6 +61,7 @@ from tactile_gym.estimation.slide import (
 )
 
 __all__ = [
+    "COVARIANCES",
     "COVARIANCE_LAYOUT",
     "FLAGS",
     "JOINT_TYPES",

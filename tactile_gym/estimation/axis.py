@@ -134,10 +134,20 @@ def degenerate_estimate(method: str, n_used: int, planar: bool) -> AxisEstimate:
     )
 
 
-def stds_from_covariance(cov: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
-    """(position_std, angle_std) from a 7x7 covariance in ``COVARIANCE_LAYOUT`` order."""
+def stds_from_covariance(
+    cov: np.ndarray, direction: np.ndarray, lever: float = 0.0
+) -> tuple[float, float]:
+    """(position_std, angle_std) from a 7x7 covariance in ``COVARIANCE_LAYOUT`` order.
+
+    The position's is taken ``lever`` (m) along the axis from its ``point``: there the axis
+    moves by ``lever`` times each turn of the direction too.
+    """
     perp = np.eye(3) - np.outer(direction, direction)
-    cp = perp @ cov[:3, :3] @ perp
+    block = cov[:3, :3]
+    if lever:
+        cross = cov[:3, 3:6]
+        block = block + lever * (cross + cross.T) + lever * lever * cov[3:6, 3:6]
+    cp = perp @ block @ perp
     pos = float(np.sqrt(max(np.trace(cp), 0.0)))
     ang = float(np.sqrt(max(np.trace(cov[3:6, 3:6]), 0.0)))
     return pos, ang

@@ -1,6 +1,6 @@
 """One model per joint type: rigid, revolute, prismatic, each fitted to the same edge lines.
 
-World frame, metres, radians (docs/design.md 6.9). Every model explains each measurement's
+World frame, metres, radians (docs/design.md 6.10). Every model explains each measurement's
 edge line (:mod:`.lines`) as a line of the link, moved by the joint to the measurement's
 configuration:
 
@@ -82,7 +82,7 @@ _EZ = np.array([0.0, 0.0, 1.0])
 
 @dataclass(frozen=True)
 class JointTypePrior:
-    """What is known before touching: the priors of the joint-type models (docs/design.md 6.9).
+    """What is known before touching: the priors of the joint-type models (docs/design.md 6.10).
 
     Attributes:
         type_probabilities: prior probabilities of rigid, revolute and prismatic (> 0; they
@@ -298,7 +298,7 @@ def minimise(fun, jac, precision: np.ndarray) -> np.ndarray:
     wander, and moves the others by a negligible share. Nielsen's damping from 0 (pure
     Gauss-Newton: a good start needs nothing else); a step is kept only when the cost drops,
     and the solve stops once a step gains less than 1e-4 of the cost.
-    Why not ``scipy.optimize.least_squares``: docs/design.md 6.9.
+    Why not ``scipy.optimize.least_squares``: docs/design.md 6.10.
 
     Args:
         fun: residuals (M,) at x.
@@ -725,7 +725,7 @@ def saturated_evidence(data: LineData, prior: JointTypePrior) -> float:
 
     The rigid model with one line per measurement fits each exactly, so this is the
     measurements' likelihood maximum less the price of a free line for every one of them
-    (docs/design.md 6.9).
+    (docs/design.md 6.10).
     """
     own = dataclasses.replace(
         data,
@@ -924,7 +924,7 @@ class RevoluteModel(_LineModel):
     with the prior's axis prior, fed the measurements of the edge line measured most often).
     The evidence is the Laplace approximation at the mode of the whole model: the lines,
     the turns and the axis (with its prior) refined together from that estimate, so that the
-    lines the axis fit did not see count too (docs/design.md 6.9). The refined axis only
+    lines the axis fit did not see count too (docs/design.md 6.10). The refined axis only
     places the evidence; it is not reported.
 
     Args:

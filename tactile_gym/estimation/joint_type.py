@@ -1,4 +1,4 @@
-"""Which joint is it? Posterior joint-type probabilities from touch alone (docs/design.md 6.9).
+"""Which joint is it? Posterior joint-type probabilities from touch alone (docs/design.md 6.10).
 
 NumPy/SciPy only. World frame, metres, radians. Measurements are the axis fits' (a contact
 point with ``point_std``, an edge direction with ``edge_std`` or ``edge_cov``), physically
@@ -10,7 +10,7 @@ configuration of its own).
 :class:`JointTypeEstimator` fits the rigid, revolute and prismatic models
 (:mod:`.joint_models`) and the "none" alternative (every measurement its own line) and
 weighs them by their Laplace evidence and the prior type probabilities (the selection rule,
-docs/design.md 6.9). Degenerate data is flagged, never guessed:
+docs/design.md 6.10). Degenerate data is flagged, never guessed:
 
 * ``"too_few"``: fewer than ``min_measurements``; the probabilities are the prior's;
 * ``"one_configuration"``: every press at one configuration, so nothing moved that could
@@ -72,7 +72,7 @@ OUTCOMES = (*JOINT_TYPES, "none")
 
 RULES = ("laplace", "bic")
 """Model-selection rules: the Laplace evidence (default), or the Bayesian information
-criterion ``ln L - (k / 2) ln(4 N)`` for comparison (docs/design.md 6.9)."""
+criterion ``ln L - (k / 2) ln(4 N)`` for comparison (docs/design.md 6.10)."""
 
 FLAGS = ("too_few", "one_configuration", "no_motion", "one_edge", "none_fits", "best_misfits")
 """The flags a :class:`JointTypeEstimate` may carry (see the module docstring)."""

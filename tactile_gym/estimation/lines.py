@@ -1,6 +1,6 @@
 """Edge-line measurements for the joint-type models: labels, whitened residuals, evidence.
 
-World frame, metres, radians (docs/design.md 6.9). A measurement is a contact point ``x``
+World frame, metres, radians (docs/design.md 6.10). A measurement is a contact point ``x``
 (per-axis std ``point_std``, m) on an edge line of the link and the line's unit direction
 ``e``, physically oriented (``e = n x f``, docs/design.md 7.3), with its covariance
 ``edge_cov`` (rad^2, normal to ``e``). Two labels go with it: the edge line of the link it was
@@ -23,7 +23,7 @@ So each measurement carries 4 degrees of freedom in every model, and the models'
 are densities of the same data.
 
 :func:`laplace_evidence` turns residuals and their Jacobian at a fit into the Laplace
-approximation of the evidence (docs/design.md 6.9).
+approximation of the evidence (docs/design.md 6.10).
 """
 
 from __future__ import annotations
@@ -268,7 +268,7 @@ def line_rows(
 
 @dataclass(frozen=True)
 class Evidence:
-    """The Laplace approximation at a fit (docs/design.md 6.9).
+    """The Laplace approximation at a fit (docs/design.md 6.10).
 
     Attributes:
         log_evidence: ``ln p(data | model)``.

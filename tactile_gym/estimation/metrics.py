@@ -67,44 +67,70 @@ def axis_error(
 
 
 def axis_nees(
-    estimate: AxisEstimate | None, true_point: np.ndarray, true_direction: np.ndarray
+    estimate: AxisEstimate | None,
+    true_point: np.ndarray,
+    true_direction: np.ndarray,
+    reference_point: np.ndarray | None = None,
 ) -> tuple[float, float, float]:
     """Normalised estimation error squared of an axis estimate against the truth.
 
     The errors are taken in a basis (b1, b2) normal to the estimated direction d: of the
     direction, ``d - s u`` (s the sign that aligns the true direction u with d), and of the
-    position, the estimate's point minus the point where the true axis crosses the plane
-    normal to d through it. Each is weighed by the matching block of ``covariance``. For a
-    consistent estimator their means are 4, 2 and 2 (chi-square degrees of freedom).
+    position, the estimated axis' crossing of the plane normal to d through the reference
+    point minus the true axis' crossing of that plane. Each is weighed by the matching block
+    of ``covariance`` carried to that plane (the position's covariance there includes the
+    direction's, times the distance along the axis from the estimate's ``point``). For a
+    consistent estimator their means are 4, 2 and 2 (chi-square degrees of freedom). The
+    joint NEES does not depend on the reference point; the position's does.
 
     Args:
         estimate: the estimate, with a covariance.
         true_point: (3,) any point on the true axis, world frame, m.
         true_direction: (3,) true axis direction (any length > 0, any sign).
+        reference_point: (3,) where the position error is taken, e.g. the true hinge pin's
+            centre (where :func:`axis_error` takes it), m. Defaults to the estimate's
+            ``point``.
 
     Returns:
         ``(joint, position, direction)``: the NEES of all four errors and of each pair.
-        ``(inf, inf, inf)`` for None, a degenerate estimate or one without covariance.
+        ``(inf, inf, inf)`` for None, a degenerate estimate or one without covariance. A
+        direction the fit held fixed (zero variance: the planar fits) scores 0 when it is
+        exact and inf otherwise, and the joint NEES is then the position's plus that.
 
     Raises:
         ValueError: on malformed truth vectors, or a true axis parallel to the estimate's
             normal plane.
     """
     p, u = _true_axis(true_point, true_direction)
+    ref = None if reference_point is None else _vec3(reference_point, "reference_point")
     if estimate is None or estimate.degenerate or estimate.covariance is None:
         return math.inf, math.inf, math.inf
     d = estimate.direction
     along = float(u @ d)
     if abs(along) < 1e-12:
         raise ValueError(f"true_direction must not be normal to the estimate's, got {u.tolist()}")
-    crossing = p + ((estimate.point - p) @ d) / along * u
     b = np.linalg.svd(d[None, :])[2][1:].T  # (3, 2) orthonormal, normal to d
     basis = np.zeros((6, 4))
     basis[:3, :2] = basis[3:, 2:] = b
-    err = basis.T @ np.concatenate([estimate.point - crossing, d - math.copysign(1.0, along) * u])
+    point = estimate.point
+    if ref is not None:
+        # The estimated axis at the reference's plane; as d turns by dd it moves by s dd.
+        lever = float((ref - point) @ d)
+        point = point + lever * d
+        basis[3:, :2] = lever * b
+    crossing = p + ((point - p) @ d) / along * u
+    err = b.T @ np.concatenate(
+        [(point - crossing)[:, None], (d - math.copysign(1.0, along) * u)[:, None]], axis=1
+    )
+    err = err.T.ravel()
     cov = basis.T @ estimate.covariance[:6, :6] @ basis
+    position = float(err[:2] @ np.linalg.solve(cov[:2, :2], err[:2]))
+    if not cov[2:, 2:].any():
+        # A direction held fixed (the planar fits): right or infinitely wrong.
+        direction = 0.0 if not err[2:].any() else math.inf
+        return position + direction, position, direction
     return (
         float(err @ np.linalg.solve(cov, err)),
-        float(err[:2] @ np.linalg.solve(cov[:2, :2], err[:2])),
+        position,
         float(err[2:] @ np.linalg.solve(cov[2:, 2:], err[2:])),
     )

@@ -17,11 +17,13 @@ residual variance (docs/design.md 6.3: the fit is badly conditioned over small r
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
-from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs
+from tactile_gym.estimation.axis import AxisEstimate, as_edge_covs, stds_from_covariance
+from tactile_gym.estimation.calibration import CALIBRATED, press_noise, spot_counts
 from tactile_gym.estimation.fit3d import Fit3D
 from tactile_gym.estimation.fits import PlanarFit
 from tactile_gym.estimation.interface import Measurements
@@ -32,6 +34,7 @@ from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
 __all__ = ["JointAxisEstimator"]
 
 MODES = ("planar", "3d")
+COVARIANCES = ("independent", "calibrated")
 
 # Edge directions closer than this (or 3 edge stds) count as the same direction when
 # checking identifiability, rad.
@@ -61,6 +64,18 @@ class JointAxisEstimator:
     ``min_measurements`` and the distinct directions do not apply. The planar mode uses
     the prior's pin (x-y) only: its axis is vertical by assumption.
 
+    ``covariance`` says what the handed noise means. ``"independent"`` (the default, the v2
+    ids' estimator): each measurement's ``point_std`` and edge noise are its whole error,
+    independent of the others'. ``"calibrated"``: they are the sensing's bounds, and the fits
+    use the error model of :mod:`~tactile_gym.estimation.calibration` (docs/design.md 6.9):
+    the contact point's variation between presses in place of its bound, the press's
+    noise-free edge error and the edge's error out of the face that the reading noise leaves
+    out, and each spot's bias counted once per press at that spot, so that repeated presses
+    at one spot do not average it away. With a prior its ``position_std`` is taken at the
+    axis point nearest the prior's pin, where the task measures the position error
+    (docs/design.md 6.7). Its 3D fit keeps the best of several refined starts (``Fit3D``'s
+    ``multi_start``), so that a local minimum does not make a confident wrong estimate.
+
     Both modes use ``loss``; how each fit uses it and warm-starts is told by
     :class:`~tactile_gym.estimation.fits.PlanarFit` and
     :class:`~tactile_gym.estimation.fit3d.Fit3D`. Results are cached; ``estimate()``
@@ -74,6 +89,7 @@ class JointAxisEstimator:
             (>= 3).
         prior: optional :class:`~tactile_gym.estimation.prior.AxisPrior`, kept across
             ``reset``.
+        covariance: ``"independent"`` or ``"calibrated"`` (``COVARIANCES``), above.
     """
 
     def __init__(
@@ -82,6 +98,7 @@ class JointAxisEstimator:
         loss: str = "soft_l1",
         min_measurements: int | None = None,
         prior: AxisPrior | None = None,
+        covariance: str = "independent",
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -94,6 +111,9 @@ class JointAxisEstimator:
         # float() first: inf and NaN must fail here like any non-integer, not in int().
         if not (float(min_measurements).is_integer() and min_measurements >= 3):
             raise ValueError(f"min_measurements must be an integer >= 3, got {min_measurements!r}")
+        if covariance not in COVARIANCES:
+            raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
+        self.covariance = covariance
         self.mode = mode
         self.loss = loss
         self.prior = prior
@@ -110,11 +130,16 @@ class JointAxisEstimator:
         self._point_std = np.empty(cap)
         # The edge noise as the fit uses it (AxisFit.edge_noise).
         self._edge_noise = np.empty((cap,) if self.mode == "planar" else (cap, 3, 3))
+        # covariance="calibrated": the parts each press shares with its spot (calibration.py).
+        self._edge_shared = np.empty_like(self._edge_noise)
+        self._point_shared = np.empty(cap)
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
         self._cached: AxisEstimate | None = None
         self._stale = True
-        fit = PlanarFit if self.mode == "planar" else Fit3D
-        self._fit = fit(self.loss, self.prior)
+        if self.mode == "planar":
+            self._fit = PlanarFit(self.loss, self.prior)
+        else:
+            self._fit = Fit3D(self.loss, self.prior, multi_start=self.covariance == "calibrated")
 
     @property
     def n_measurements(self) -> int:
@@ -199,7 +224,17 @@ class JointAxisEstimator:
                 raise ValueError(f"edge_cov must have shape (3, 3), got {cov.shape[1:]}")
             cov = as_edge_covs(cov, np.array(el)[None] / length)
         # From the edge as given, before its z part goes (planar) and it is normalised.
-        noise = self._fit.edge_noise(np.array(el), e.shape[0], se, None if cov is None else cov[0])
+        given = np.array(el)
+        cov = None if cov is None else cov[0]
+        if self.covariance == "calibrated":
+            own, shared, point_var, point_shared = press_noise(
+                given / length, e.shape[0], se, cov, sx, CALIBRATED
+            )
+            noise = self._fit.edge_noise(given, e.shape[0], se, own)
+            edge_shared = self._fit.edge_noise(given, e.shape[0], se, shared)
+            sx = math.sqrt(point_var)
+        else:
+            noise = self._fit.edge_noise(given, e.shape[0], se, cov)
         if self.mode == "planar":
             el[2] = 0.0
         el = [v / norm for v in el]
@@ -213,6 +248,9 @@ class JointAxisEstimator:
         self._edges[n] = orient_like(el, self._edges[max(0, n - SIGN_LOOKBACK) : n]) if n else el
         self._point_std[n] = sx
         self._edge_noise[n] = noise
+        if self.covariance == "calibrated":
+            self._edge_shared[n] = edge_shared
+            self._point_shared[n] = point_shared
         self._n = n + 1
         if len(self._dirs) < 3:
             tol = math.cos(max(_DISTINCT_TOL, 3.0 * se))
@@ -221,8 +259,37 @@ class JointAxisEstimator:
                 self._dirs.append(ev.copy())
         self._stale = True
 
+    def _calibrated(self, data: Measurements) -> Measurements:
+        """The measurements with each press's shared noise counted once per press at its
+        spot (``calibration.py``)."""
+        n = data.n
+        extra = spot_counts(data.points, CALIBRATED.spot_radius) - 1.0
+        shared = self._edge_shared[:n]
+        return Measurements(
+            data.points,
+            data.edges,
+            np.sqrt(np.square(data.point_std) + extra * self._point_shared[:n]),
+            data.edge_noise + extra.reshape((n,) + (1,) * (shared.ndim - 1)) * shared,
+        )
+
+    def _at_pin(self, est: AxisEstimate) -> AxisEstimate:
+        """The estimate with its ``position_std`` taken at the axis point nearest the
+        prior's pin, where the task measures the position error (docs/design.md 6.7)."""
+        if est.covariance is None:
+            return est
+        lever = float((self.prior.pin - est.point) @ est.direction)
+        position_std, _ = stds_from_covariance(est.covariance, est.direction, lever)
+        return dataclasses.replace(est, position_std=position_std)
+
     def _grow(self) -> None:
-        for name in ("_points", "_edges", "_point_std", "_edge_noise"):
+        for name in (
+            "_points",
+            "_edges",
+            "_point_std",
+            "_edge_noise",
+            "_edge_shared",
+            "_point_shared",
+        ):
             old = getattr(self, name)
             new = np.empty((2 * old.shape[0],) + old.shape[1:])
             new[: self._n] = old[: self._n]
@@ -247,7 +314,11 @@ class JointAxisEstimator:
         data = Measurements(
             self._points[:n], self._edges[:n], self._point_std[:n], self._edge_noise[:n]
         )
+        if self.covariance == "calibrated":
+            data = self._calibrated(data)
         est = self._fit.refit(data)
+        if self.covariance == "calibrated" and prior is not None:
+            est = self._at_pin(est)
         if prior is not None:
             # Flagged if degenerate (the prior keeps the system regular; only overflowing
             # input could), never None.

@@ -1,5 +1,5 @@
 """The direction of a prismatic joint from touch: from the edge lines, and the "simple method"
-analogue (docs/design.md 6.9; the paper's Table I, for a drawer).
+analogue (docs/design.md 6.10; the paper's Table I, for a drawer).
 
 World frame, metres, radians. :func:`fit_slide_direction` is the proposed method: the
 prismatic model's direction (edge lines keep their direction and shift along the joint's),

@@ -89,7 +89,8 @@ class LogHeader:
             fingertip's mass (kg) and centre of mass (sensor frame, m); the package's
             defaults otherwise.
         gate: ``GateConfig`` fields that differ from the defaults.
-        estimator: ``mode`` (``"planar"``: a vertical axis; ``"3d"``) and ``loss``.
+        estimator: ``mode`` (``"planar"``: a vertical axis; ``"3d"``), ``loss`` and
+            ``covariance`` (``tactile_gym.estimation.COVARIANCES``).
         prior: the axis prior (``AxisPrior`` fields: ``pin``, ``pin_cov``, ``direction``,
             ``angle_std``; m, m^2, rad), or None.
         edge_distance: the probed edge's expected distance from the axis (mean, std), m, or
@@ -137,6 +138,7 @@ class LogHeader:
             mode=self.estimator["mode"],
             loss=self.estimator.get("loss", "soft_l1"),
             prior=self.axis_prior(),
+            covariance=self.estimator.get("covariance", "independent"),
         )
         distance = None if self.edge_distance is None else tuple(self.edge_distance)
         return MeasurementPipeline(

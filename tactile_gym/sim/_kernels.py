@@ -39,8 +39,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from tactile_gym.sim._jit import kernel
 from tactile_gym.sim._pose_kernels import advance_into, matvec_entry, sum_fma, turned_frame
 
 BOX = 0
@@ -54,7 +54,19 @@ WRENCH, REACTION, FRAME, COUNT = 0, 6, 12, 24
 PRIM_COLS = 25
 
 
-@njit(cache=True)
+@kernel(inline="always")
+def check_poses(poses):
+    """Raise a ValueError if a pose holds a NaN or an infinity. Every comparison with NaN is
+    false: a broad phase would find nothing in reach, forever, and an evaluation no contact,
+    without a word."""
+    for i in range(poses.shape[0]):
+        for r in range(poses.shape[1]):
+            for c in range(3):
+                if not math.isfinite(poses[i, r, c]):
+                    raise ValueError("the fingertip's and the primitives' poses must be finite")
+
+
+@kernel()
 def _frames(poses):
     """(P, 4, 3) frames: A = Rb^T R, b = Rb^T (p - c) for each primitive."""
     n_prim = poses.shape[0] - 1
@@ -76,7 +88,7 @@ def _frames(poses):
 # Point helpers take and return coordinates as scalars (tuples), which stay in registers.
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _to_local(frames, j, x0, x1, x2):
     """A_j x + b_j: a sensor-frame point in primitive j's frame."""
     return (
@@ -86,7 +98,7 @@ def _to_local(frames, j, x0, x1, x2):
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _distance(shapes, kind, j, x0, x1, x2):
     """Signed distance of a point in primitive j's frame (negative inside), m."""
     if kind == PLANE:
@@ -99,7 +111,7 @@ def _distance(shapes, kind, j, x0, x1, x2):
     return math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) + min(qmax, 0.0) - shapes[j, 3]
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _normal(shapes, kind, j, x0, x1, x2):
     """Outward unit normal at a point in primitive j's frame: for a box, from the inner box's
     nearest point, or along the nearest face's axis inside the inner box."""
@@ -109,6 +121,14 @@ def _normal(shapes, kind, j, x0, x1, x2):
     q1 = abs(x1) - shapes[j, 1]
     q2 = abs(x2) - shapes[j, 2]
     p0, p1, p2 = max(q0, 0.0), max(q1, 0.0), max(q2, 0.0)
+    # Off an edge's rounding only one of them is positive: the normal is that axis, which the
+    # general branch gives too, to the bit (sqrt(x * x) is x in binary floating point).
+    if p0 == 0.0 and p1 == 0.0 and p2 > 1e-12:
+        return math.copysign(0.0, x0), math.copysign(0.0, x1), math.copysign(1.0, x2)
+    if p1 == 0.0 and p2 == 0.0 and p0 > 1e-12:
+        return math.copysign(1.0, x0), math.copysign(0.0, x1), math.copysign(0.0, x2)
+    if p0 == 0.0 and p2 == 0.0 and p1 > 1e-12:
+        return math.copysign(0.0, x0), math.copysign(1.0, x1), math.copysign(0.0, x2)
     outer = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
     if outer > 1e-12:
         n0, n1, n2 = p0 / outer, p1 / outer, p2 / outer
@@ -121,7 +141,7 @@ def _normal(shapes, kind, j, x0, x1, x2):
     return math.copysign(n0, x0), math.copysign(n1, x1), math.copysign(n2, x2)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _project(shapes, kind, j, x0, x1, x2):
     """Nearest point of primitive j's surface to a point outside it (for a point inside, of
     the nearest face), and the outward normal there, primitive j's frame."""
@@ -130,7 +150,7 @@ def _project(shapes, kind, j, x0, x1, x2):
     return x0 - d * n0, x1 - d * n1, x2 - d * n2, n0, n1, n2
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _entry(shapes, j, y0, y1, y2, x0, x1, x2):
     """Where the straight path from y to x, a point inside box j, entered the box's surface.
 
@@ -162,7 +182,7 @@ def _entry(shapes, j, y0, y1, y2, x0, x1, x2):
     return True, a0, a1, a2
 
 
-@njit(cache=True)
+@kernel()
 def stable_order(keys, count):
     """The permutation that sorts ``keys[:count]`` ascending, ties in index order: the one
     ``np.argsort(kind="stable")`` gives (a stable sort's permutation is unique).
@@ -205,7 +225,7 @@ def stable_order(keys, count):
     return order
 
 
-@njit(cache=True)
+@kernel()
 def select(
     points,
     areas,
@@ -241,6 +261,9 @@ def select(
         primitive; frames (P, 4, 3) of all primitives at this pose; clearance: a lower bound
         on every node's distance to every primitive, m, from the bounds the pruning computed).
     """
+    check_poses(poses)
+    if not reach >= 0.0:
+        raise ValueError("the broad phase's reach must be a number >= 0 m")
     frames = _frames(poses)
     n_prim = prim_info.shape[0]
     found = np.empty(points.shape[0], dtype=np.int64)
@@ -294,7 +317,7 @@ def select(
     return nodes, cand_points, cand_areas, cand_dist, hits, frames, clearance
 
 
-@njit(cache=True)
+@kernel()
 def evaluate(
     points,
     areas,
@@ -334,6 +357,9 @@ def evaluate(
         (count, max_penetration, shell, |force|, wrench (6,), prim_data, node_data,
         node_ids); the first ``count`` rows of the node arrays are valid.
     """
+    check_poses(poses)
+    if not moved >= -np.inf:
+        raise ValueError("the motion since the broad phase must be a number, got NaN")
     n_prim = prim_info.shape[0]
     # Candidates that may touch after a motion of ``moved`` (searchsorted, side="right").
     lo, hi = 0, distance.shape[0]
@@ -478,7 +504,7 @@ def evaluate(
     )
 
 
-@njit(cache=True)
+@kernel()
 def commit(
     state_prim,
     state_anchor,
@@ -510,7 +536,7 @@ def commit(
                 prev_frames[prim_rows[k], r, c] = prim_data[k, FRAME + 3 * r + c]
 
 
-@njit(cache=True)
+@kernel()
 def substep(
     points,
     areas,

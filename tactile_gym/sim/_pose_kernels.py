@@ -11,8 +11,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import intrinsic
+
+from tactile_gym.sim._jit import kernel
 
 
 @intrinsic
@@ -32,19 +34,19 @@ def fma(typingctx, a, b, c):
 # matrix-vector product starts from the middle term.
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def sum_fma(a0, b0, a1, b1, a2, b2):
     """An entry of a 3x3 @ 3x3 product, or a 3-vector dot product, as NumPy computes it."""
     return fma(a2, b2, fma(a1, b1, a0 * b0))
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def matvec_entry(a0, b0, a1, b1, a2, b2):
     """An entry of a 3x3 @ 3-vector product, as NumPy computes it."""
     return fma(a2, b2, fma(a0, b0, a1 * b1))
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def turned_frame(link, angle, out):
     """Pose of a primitive on a revolute link into ``out`` (4, 3): rotation H Rz(angle), then
     centre pin + R c. ``link`` (5, 3): H (the hinge frame's axes as columns, world frame),
@@ -61,7 +63,7 @@ def turned_frame(link, angle, out):
         )
 
 
-@njit(cache=True)
+@kernel()
 def link_pose(link, angle):
     """(4, 3) pose of a primitive on a revolute link at ``angle`` (see ``turned_frame``)."""
     out = np.empty((4, 3))
@@ -69,7 +71,7 @@ def link_pose(link, angle):
     return out
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def advance_into(pose, motion, turning, out):
     """One substep of the fingertip's motion from ``pose`` into ``out`` (both (4, 3):
     rotation, then position): position + step, and rotation step_R @ R when ``turning``."""
@@ -85,7 +87,7 @@ def advance_into(pose, motion, turning, out):
                 out[r, c] = pose[r, c]
 
 
-@njit(cache=True)
+@kernel()
 def advance(pose, motion, turning, count):
     """Apply ``count`` substeps of the fingertip's motion to ``pose`` in place (free air)."""
     tmp = np.empty((4, 3))

@@ -129,6 +129,20 @@ class HingedObject:
         #: (5, 3) the free link for the compiled kernels: ``hinge_rotation`` (rows 0-2), the
         #: pin, the free box's centre in the link frame (``_pose_kernels.link_pose``).
         self.link = np.concatenate([self.hinge_rotation, [self.pin, self.free_center_local]])
+        #: (8,) the joint's dynamics for ``_step_kernels.hinge_step``: the link's inertia
+        #: about the axis as PyBullet has it (its inertia about the centre of mass, which is
+        #: the box's centre, plus m r^2), damping, holding torque, limits, weight.
+        mass, _, inertia, com = p.getDynamicsInfo(self.body_id, 0, physicsClientId=cid)[:4]
+        self.hinge = np.array(
+            [
+                inertia[2] + mass * (com[0] ** 2 + com[1] ** 2),
+                config.damping,
+                config.holding_torque,
+                config.lower_limit,
+                config.upper_limit,
+                *(mass * np.asarray(world.gravity)),
+            ]
+        )
         self._angle = 0.0
         self._velocity = 0.0
         self.reset(joint_angle)
@@ -149,7 +163,24 @@ class HingedObject:
             :2
         ]
         # The pose the kernels give the free box at this angle, to the last bit.
-        pose = _pose_kernels.link_pose(self.link, self._angle)
+        self._pose_free_box(_pose_kernels.link_pose(self.link, self._angle))
+
+    def set_state(self, angle: float, velocity: float, pose: np.ndarray) -> None:
+        """Take the joint's state from an integrator other than PyBullet's (the v3 step,
+        ``docs/design.md`` 3.6) and hand it to PyBullet, so that its link is where the skin
+        saw it (rendering, ``getLinkState``).
+
+        Args:
+            angle, velocity: rad, rad/s.
+            pose: (4, 3) the free box's pose at ``angle`` (``_pose_kernels.link_pose``).
+        """
+        if angle == self._angle and velocity == self._velocity:
+            return  # a held link: PyBullet and the free box have it already
+        self._angle, self._velocity = angle, velocity
+        p.resetJointState(self.body_id, 0, angle, velocity, physicsClientId=self._cid)
+        self._pose_free_box(pose.copy())
+
+    def _pose_free_box(self, pose: np.ndarray) -> None:
         self.free_box.rotation = pose[:3]
         self.free_box.center = pose[3]
 

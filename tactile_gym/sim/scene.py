@@ -21,6 +21,11 @@ link are static. The fingertip is kinematic, like the paper's coordinate-measuri
 it moves at constant velocity toward the commanded pose over the substeps (speed-limited), and
 a guarded move refuses any substep that would raise |f| above ``force_limit`` by advancing
 into the object; retreating is always allowed.
+
+That is the v2 step (``physics="v2"``, the default). The v3 step (``physics="v3"``,
+docs/design.md 3.6) runs a control step's substeps in one compiled call that integrates the
+hinge too, keeps its broad phase across control steps, and skips substeps that would repeat
+the one before; it is held to bounds against the v2 step, not to its bits.
 """
 
 from __future__ import annotations
@@ -32,7 +37,7 @@ import numpy as np
 import pybullet as p
 
 from tactile_gym.sensing import FingertipGeometry, SensorConfig, SensorErrors
-from tactile_gym.sim import _pose_kernels
+from tactile_gym.sim import _pose_kernels, _step_kernels
 from tactile_gym.sim.camera import Camera, frame_box
 from tactile_gym.sim.config import ObjectConfig, SkinConfig
 from tactile_gym.sim.objects import HingedObject
@@ -45,13 +50,29 @@ from tactile_gym.spatial import (
     quaternion_to_matrix,
     rotvec_to_matrix,
 )
+from tactile_gym.validation import check_choice
 from tactile_gym.vec3 import norm
 
-__all__ = ["FORCE_LIMIT", "ProbeScene", "StepInfo"]
+__all__ = ["FORCE_LIMIT", "PHYSICS", "ProbeScene", "StepInfo"]
 
 #: Default guarded-move limit on |f|, N.
 FORCE_LIMIT = 8.0
+#: The contact steps (docs/design.md 3.5, 3.6): "v2", PyBullet integrates the hinge and the
+#: broad phase is made afresh every control step in contact (the v1 and v2 ids' physics, kept
+#: to the bit); "v3", one compiled call per control step integrates the hinge too and keeps
+#: the broad phase while the motion stays within its reach.
+PHYSICS = ("v2", "v3")
 _IDENTITY = np.eye(3)
+#: Least reach of a v3 broad phase beyond its margin, m: a press that moves less than this
+#: keeps its broad phase (the evaluation takes only the candidates within the motion so far).
+LEAN_REACH = 0.002
+#: Fingertip motion of a v3 control step below which the fingertip stays where it is, m: the
+#: rounding of the last steps toward a target would otherwise move it by an ulp or so every
+#: control step, and a still fingertip lets the step skip the skin (docs/design.md 3.6).
+LEAN_STILL = 1e-12
+#: Motion since a v3 broad phase was made beyond which it is made afresh from its own
+#: candidates before the next control step (``SoftSkin.narrow``), m.
+LEAN_NARROW = 1e-4
 
 
 @dataclass(frozen=True)
@@ -65,6 +86,9 @@ class StepInfo:
         max_penetration: largest node penetration over the substeps, m.
         n_active_nodes: nodes in contact after the last substep.
         max_force: largest |f| over the substeps, N.
+        skin_substeps: substeps that evaluated the skin (the rest were the physics alone:
+            nothing within reach, or, in the v3 step, nothing moved since an evaluation that
+            left the skin as it was, docs/design.md 3.6).
     """
 
     force_limited: bool
@@ -72,6 +96,7 @@ class StepInfo:
     max_penetration: float
     n_active_nodes: int
     max_force: float
+    skin_substeps: int
 
 
 def _rotation(value, name: str) -> np.ndarray:
@@ -124,6 +149,8 @@ class ProbeScene:
         gui: open the PyBullet GUI.
         max_speed: fingertip speed limit, m/s.
         max_angular_speed: fingertip angular speed limit, rad/s.
+        physics: the contact step, one of ``PHYSICS``: ``"v2"`` (the default; the v1 and v2
+            ids' outputs to the bit) or ``"v3"`` (the lean step, docs/design.md 3.6).
     """
 
     def __init__(
@@ -139,7 +166,9 @@ class ProbeScene:
         gui: bool = False,
         max_speed: float = 0.25,
         max_angular_speed: float = 3.0,
+        physics: str = "v2",
     ) -> None:
+        check_choice("physics", physics, PHYSICS)
         if not force_limit > 0:
             raise ValueError(f"force_limit must be > 0 N, got {force_limit!r}")
         if not (max_speed > 0 and max_angular_speed > 0):
@@ -152,6 +181,7 @@ class ProbeScene:
         self.force_limit = float(force_limit)
         self.max_speed = float(max_speed)
         self.max_angular_speed = float(max_angular_speed)
+        self.physics = physics
         # At rest at angle 0, or at the nearest limit for joints whose range excludes 0.
         rest = float(np.clip(0.0, object_config.lower_limit, object_config.upper_limit))
         self._object = HingedObject(self._world, object_config, rest)
@@ -166,6 +196,10 @@ class ProbeScene:
         self._orientation_key = b""  # the rotation ``_orientation`` was converted from
         self._orientation = np.zeros(4)
         self._reaction = np.zeros((3, 3))  # on the free link: force, torque, centre
+        # The v3 step's joint state (angle, velocity), the free box's pose and statistics.
+        self._joint = np.zeros(2)
+        self._link_pose = np.zeros((4, 3))
+        self._stats = np.zeros(_step_kernels.STATS_COLS)
         self._fingertip_visual = self._make_fingertip_visual()
         self._closed = False
         self.last_reaction: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -237,6 +271,7 @@ class ProbeScene:
             self._object_config = object_config
         self._use_object()
         self._object.reset(float(joint_angle))
+        self._joint[:] = (self._object.joint_angle, 0.0)
         self._pose[:3] = rot
         self._pose[3] = pos
         self._skin.reset()
@@ -291,6 +326,8 @@ class ProbeScene:
                 ang = self.max_angular_speed * horizon
             motion[:3] = rotvec_to_matrix(rv / n)
         turning = ang > 0.0
+        if self.physics == "v3":
+            return self._lean_step(motion, turning, norm(motion[3]) + ang / n * self._skin.reach)
 
         obj = self._object
         skin = self._skin
@@ -321,6 +358,7 @@ class ProbeScene:
         reaction = self._reaction
         pushed = False
         pending = 0  # free-air substeps whose motion is not yet applied to ``pose``
+        evaluated = 0
         for k in range(n):
             if k:
                 angle = p.getJointState(body, 0, physicsClientId=cid)[0]
@@ -344,6 +382,7 @@ class ProbeScene:
                 obj_budget = abs(obj.joint_velocity) * (n - k) * dt * reach_obj + 1e-3
                 sel = self._select((n - k) * step_len + obj_budget, angle)
                 moved = step_len
+            evaluated += 1
             step_limited, travelled, pushed, pen, step_shell, force = skin.substep(
                 sel,
                 pose,
@@ -381,7 +420,93 @@ class ProbeScene:
             max_penetration=max_pen,
             n_active_nodes=skin.n_active,
             max_force=max_force,
+            skin_substeps=evaluated,
         )
+
+    def _lean_step(self, motion: np.ndarray, turning: bool, step_len: float) -> StepInfo:
+        """The v3 control step (docs/design.md 3.6): the substeps in one compiled call
+        (``_step_kernels.control_step``), which integrates the hinge too; PyBullet's joint
+        is set to the result once. The broad phase is kept while the motion bound since it
+        was made stays below its reach, with or without candidates."""
+        n = self._world.substeps
+        dt = self._world.time_step
+        obj = self._object
+        skin = self._skin
+        joint = self._joint
+        reach_obj = self._free_reach
+        if not turning and step_len * n < LEAN_STILL:
+            # Held still: a target a few ulps off is not chased, so the substeps can see that
+            # nothing moves.
+            motion[3] = 0.0
+            step_len = 0.0
+        step_len += 1e-9
+        stats = self._stats
+        stats.fill(0.0)
+        sel = self._selection
+        done = 0
+        while done < n:
+            left = n - done
+            angle, velocity = joint.tolist()  # Python floats: NumPy scalars cost 10x per op
+            budget = abs(velocity) * left * dt * reach_obj + 1e-3
+            need = left * step_len + budget
+            moved = self._tip_moved + abs(angle - self._q_sel) * reach_obj
+            if sel is None or moved + need >= sel.reach:
+                sel = self._select(max(need, LEAN_REACH), angle)
+            elif moved > LEAN_NARROW and len(sel.nodes):
+                # What the motion so far has brought within reach of the candidates: the
+                # evaluations take every candidate within that motion of its primitives.
+                sel = self._narrow(sel, sel.reach - moved, angle)
+            stats[_step_kernels.TIP_MOVED] = self._tip_moved
+            ran = skin.run(
+                sel,
+                self._pose,
+                motion,
+                turning,
+                step_len,
+                left,
+                self._link,
+                self._link_row,
+                obj.hinge,
+                joint,
+                self._link_pose,
+                self._q_sel,
+                reach_obj,
+                self.force_limit,
+                dt,
+                self._reaction,
+                stats,
+            )
+            self._tip_moved = float(stats[_step_kernels.TIP_MOVED])
+            done += ran
+            if ran < left:
+                # The link sped up past the bound: select again for the rest, with the link
+                # where it is now.
+                obj.set_state(*joint.tolist(), self._link_pose)
+                sel = None
+        obj.set_state(*joint.tolist(), self._link_pose)
+        k = _step_kernels
+        out = stats.tolist()
+        reaction = self._reaction
+        self.last_reaction = (
+            (reaction[0].copy(), reaction[1].copy(), reaction[2].copy()) if out[k.PUSHED] else None
+        )
+        return StepInfo(
+            force_limited=bool(out[k.LIMITED]),
+            shell_contact=bool(out[k.SHELL]),
+            max_penetration=out[k.MAX_PEN],
+            n_active_nodes=skin.n_active,
+            max_force=out[k.MAX_FORCE],
+            skin_substeps=int(out[k.EVALUATED]),
+        )
+
+    def _narrow(self, selection: Selection, reach: float, angle: float) -> Selection:
+        """The broad phase made afresh from ``selection``'s candidates (``SoftSkin.narrow``),
+        at the committed pose and joint ``angle`` (the free link's primitive is posed there)."""
+        sel = self._skin.narrow(selection, self._prims, self._pose[:3], self._pose[3], reach)
+        self._selection = sel
+        self._tip_moved = 0.0
+        self._q_sel = angle
+        return sel
 
     def _select(self, motion_bound: float, angle: float) -> Selection:
         """Broad phase at the committed pose; the free link's primitive as the object has it."""

@@ -56,7 +56,9 @@ that started at distance d cannot touch before the fingertip and object have mov
 relative to each other: each substep (``evaluate``) evaluates only the prefix of candidates
 whose starting distance is below the motion so far. The same bounds give a selection without
 candidates its clearance: no node can touch anything before that much relative motion, so
-the scene keeps it over several control steps (docs/design.md 3.5).
+the scene keeps it over several control steps (docs/design.md 3.5). The v3 step keeps a
+selection with candidates too and makes it again from its own candidates (``narrow``) once
+the fingertip has moved (docs/design.md 3.6).
 
 The broad phase, the per-substep node loop (narrow phase, forces, stick-slip, wrench) and
 committing the state are compiled kernels (:mod:`tactile_gym.sim._kernels`): a few hundred
@@ -68,12 +70,13 @@ views and dictionaries on demand; the committed one is built only when asked for
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
 
 from tactile_gym.sensing.geometry import FingertipGeometry
-from tactile_gym.sim import _kernels
+from tactile_gym.sim import _kernels, _step_kernels
 from tactile_gym.sim.config import SkinConfig
 from tactile_gym.sim.primitives import Plane, RoundedBox
 
@@ -443,13 +446,17 @@ class SoftSkin:
             prim_rows=near.astype(np.int64),
             poses=near_poses,
         )
+        self._set_kernel_args(sel)
+        return sel
+
+    def _set_kernel_args(self, sel: Selection) -> None:
         sel.kernel_args = (
-            points,
-            areas,
-            nodes,
-            dist,
-            near_poses,
-            frames,
+            sel.points,
+            sel.areas,
+            sel.nodes,
+            sel.distance,
+            sel.poses,
+            self._prev_frames,
             sel.shapes,
             sel.prim_info,
             sel.prim_rows,
@@ -461,6 +468,40 @@ class SoftSkin:
             self.mu,
             self.thickness,
         )
+
+    def narrow(
+        self,
+        selection: Selection,
+        primitives: list,
+        rotation: np.ndarray,
+        position: np.ndarray,
+        reach: float,
+    ) -> Selection:
+        """The broad phase ``selection`` made afresh at the current poses, from its own
+        candidates (``_step_kernels.narrow``): valid for a ``reach`` up to the selection's
+        reach less the relative motion since it was made.
+
+        Args:
+            selection: from ``select`` or ``narrow``.
+            primitives: the list given to ``select``, posed now.
+            rotation, position: fingertip pose now (sensor to world).
+            reach: distance bound, m.
+        """
+        poses = selection.poses
+        _fill_poses(poses, [primitives[j] for j in selection.prims], rotation, position)
+        nodes, points, areas, dist = _step_kernels.narrow(
+            selection.points,
+            selection.areas,
+            selection.nodes,
+            poses,
+            selection.shapes,
+            selection.prim_info,
+            float(reach),
+        )
+        sel = copy.copy(selection)  # dataclasses.replace runs __init__: 4x the time
+        sel.nodes, sel.points, sel.areas = nodes, points, areas
+        sel.distance, sel.reach = dist, reach
+        self._set_kernel_args(sel)
         return sel
 
     def _kernel_shapes(self, primitives: list) -> tuple[np.ndarray, np.ndarray]:
@@ -598,6 +639,79 @@ class SoftSkin:
         self._raw_prims = (selection.prims, selection.prim_rows)
         self.n_active, self.force_norm, self._ids = out[0], out[3], out[7]
         return limited, travelled, pushed, out[1], out[2], out[3]
+
+    def run(
+        self,
+        selection: Selection,
+        pose: np.ndarray,
+        motion: np.ndarray,
+        turning: bool,
+        step_len: float,
+        substeps: int,
+        link: np.ndarray,
+        link_row: int,
+        hinge: np.ndarray,
+        joint: np.ndarray,
+        link_pose: np.ndarray,
+        q_selected: float,
+        link_reach: float,
+        limit: float,
+        dt: float,
+        reaction: np.ndarray,
+        stats: np.ndarray,
+    ) -> int:
+        """Up to ``substeps`` substeps of the v3 step in one compiled call
+        (``_step_kernels.control_step``: this skin's substeps and the hinge between them).
+
+        Args:
+            selection: from ``select``.
+            pose, motion, turning, step_len: as in ``substep``.
+            substeps: how many to run at most.
+            link, link_row: the free link (``HingedObject.link``) and its row in the
+                selection (-1: not in it).
+            hinge, joint: ``HingedObject.hinge`` and the joint's (angle, velocity), in/out.
+            link_pose: (4, 3) out: the free box's pose at the angle reached.
+            q_selected, link_reach: the joint angle at ``select`` (rad) and the largest
+                distance of a point of the free box from the pin (m).
+            limit, dt: the guard's |f| limit (N), the time step (s).
+            reaction: (3, 3) out, as in ``substep``.
+            stats: (``_step_kernels.STATS_COLS``,) in/out (``_step_kernels.control_step``).
+
+        Returns:
+            The substeps run: fewer than ``substeps`` when the motion bound reached the
+            selection's reach (select again and run the rest).
+        """
+        ran, released, evaluated, out = _step_kernels.control_step(
+            selection.kernel_args,
+            self._ids,
+            self.n_active,
+            self.force_norm,
+            pose,
+            motion,
+            turning,
+            step_len,
+            substeps,
+            link,
+            link_row,
+            hinge,
+            joint,
+            link_pose,
+            q_selected,
+            link_reach,
+            selection.reach,
+            limit,
+            self.c_n / dt,
+            dt,
+            reaction,
+            stats,
+        )
+        if evaluated:
+            self._contact, self._raw = None, out
+            self._raw_prims = (selection.prims, selection.prim_rows)
+            self.n_active, self.force_norm, self._ids = out[0], out[3], out[7]
+        elif released:
+            self._set(_EMPTY)
+        return ran
 
     def release(self) -> None:
         """Let go: commit the empty contact (nothing is within reach)."""

@@ -46,6 +46,8 @@ class World:
         self.time_step = float(time_step)
         self.substeps = int(substeps)
         self.gui = bool(gui)
+        #: Gravity, world frame, m/s^2.
+        self.gravity = tuple(float(g) for g in gravity)
         self._connected = False
         #: PyBullet's id of this world's client (``physicsClientId`` of every call).
         self.client_id: int = p.connect(p.GUI if gui else p.DIRECT)
