@@ -9,8 +9,9 @@ them), on the default skin and on stiffer or softer ones (``--skins``: the env's
 ``skin.normal_stiffness`` as a factor of the default; the sensing is told, the press's assumed
 6000 N/m is not). It prints, per press and skin, the final position error (mean, median, P90),
 the mean final angle error, the success rate, the accepted measurements and the readings a
-probe held, per episode. The default seeds lie in the selection range (``agents.seeds``),
-never in the test range.
+probe held, per episode, and the adaptive press's paired difference of the final position
+error to the v2 press on the same episodes, with its 95 % bootstrap interval. The default
+seeds lie in the selection range (``agents.seeds``), never in the test range.
 
 Run: ``python benchmarks/adaptive_press.py [--env ID] [--episodes N] [--seed S]
 [--skins 1 2 0.5] [--target DEG] [--budget N] [--holds-only | --gradient-only]
@@ -34,7 +35,8 @@ import gymnasium as gym  # noqa: E402
 
 import tactile_gym  # noqa: E402, F401 - registers the envs
 from agents.cli import KEY_VALUE_HELP, KeyValue  # noqa: E402
-from agents.episodes import run_episode, summarize  # noqa: E402
+from agents.compare import paired_difference  # noqa: E402
+from agents.episodes import EpisodeRecord, run_episode, summarize  # noqa: E402
 from agents.scripted import scripted_policy  # noqa: E402
 from agents.seeds import SELECTION_SEED  # noqa: E402
 from tactile_gym.envs import skills  # noqa: E402
@@ -103,8 +105,8 @@ class HoldCounter:
         skills.Press._move = self._move
 
 
-def play(env_id: str, kwargs: dict, seeds: range) -> tuple[dict, float]:
-    """The scripted policy's summary over ``seeds``, and the mean readings a probe held."""
+def play(env_id: str, kwargs: dict, seeds: range) -> tuple[list[EpisodeRecord], float]:
+    """The scripted policy's episodes on ``seeds``, and the mean readings a probe held."""
     env = gym.make(env_id, **kwargs)
     counter = HoldCounter()
     try:
@@ -113,7 +115,12 @@ def play(env_id: str, kwargs: dict, seeds: range) -> tuple[dict, float]:
     finally:
         counter.close()
         env.close()
-    return summarize(records), float(np.mean(counter.holds)) if counter.holds else math.nan
+    return records, float(np.mean(counter.holds)) if counter.holds else math.nan
+
+
+def final_errors_mm(records: list[EpisodeRecord]) -> np.ndarray:
+    """Each episode's final position error, mm."""
+    return 1e3 * np.array([r.position_error[-1] for r in records])
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -137,21 +144,29 @@ def main(argv: list[str] | None = None) -> None:
     print(f"adaptive: {chosen}; both: {args.env_kwargs}\n")
     print(
         "| press | skin stiffness (x configured) | final position error mean / median / P90 (mm)"
-        " | angle error (deg) | success | measurements | readings a probe held |"
+        " | angle error (deg) | success | measurements | readings a probe held"
+        " | paired error difference to v2 (mm, 95 % CI) |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     stiffness = SkinConfig().normal_stiffness
     for skin in args.skins:
         for name, press in (("v2", None), ("adaptive", chosen)):
             world = {"skin": {"normal_stiffness": skin * stiffness}} if skin != 1.0 else {}
             kwargs = merged(press_kwargs(args.env, press), args.env_kwargs, world)
-            row, held = play(args.env, kwargs, seeds)
+            records, held = play(args.env, kwargs, seeds)
+            row = summarize(records)
+            if press is None:
+                reference = final_errors_mm(records)
+                paired = "-"
+            else:
+                diff = paired_difference(final_errors_mm(records), reference)
+                paired = f"{diff.mean:+.2f} ({diff.low:+.2f} to {diff.high:+.2f})"
             print(
                 f"| {name} | {skin:g} | {row['position_mean_mm']:.2f} /"
                 f" {row['position_median_mm']:.2f} / {row['position_p90_mm']:.2f} |"
                 f" {row['angle_mean_deg']:.2f} |"
                 f" {100 * row['success_rate']:.0f} % | {row['measurements_mean']:.1f} |"
-                f" {held:.1f} |",
+                f" {held:.1f} | {paired} |",
                 flush=True,
             )
 
