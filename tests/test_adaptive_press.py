@@ -319,16 +319,27 @@ ADAPTIVE_ENV = {
 
 
 @pytest.mark.parametrize("skin", [1.0, 2.0])
-def test_the_skill_never_lifts_before_the_gates_window_is_complete(monkeypatch, skin):
+@pytest.mark.parametrize(
+    ("env_id", "adaptive"),
+    [("tactile_gym/HingeProbe-v2", ADAPTIVE_ENV), ("tactile_gym/HingeProbe-v3", {})],
+    ids=["v2-told", "v3-registered"],
+)
+def test_the_skill_never_lifts_before_the_gates_window_is_complete(
+    monkeypatch, skin, env_id, adaptive
+):
+    """On v2 with the adaptive keywords, and on v3 as registered (whose keywords are the
+    adaptive press's: docs/design.md 5.2)."""
     import gymnasium as gym
 
     import tactile_gym  # noqa: F401 - registers the envs
     from agents.scripted import scripted_policy
     from tactile_gym.envs import skills
 
-    kwargs = {**ADAPTIVE_ENV, "skin": {"normal_stiffness": skin * K_N}, "max_steps": 150}
-    env = gym.make("tactile_gym/HingeProbe-v2", **kwargs)
+    kwargs = {**adaptive, "skin": {"normal_stiffness": skin * K_N}, "max_steps": 150}
+    env = gym.make(env_id, **kwargs)
     pipeline = env.unwrapped.pipeline
+    rule = env.unwrapped.gate.config.hold_rule
+    assert rule.target is not None and env.unwrapped.config.measure_gradient
     holds = []
     move = skills.Press._move
 
@@ -355,5 +366,5 @@ def test_the_skill_never_lifts_before_the_gates_window_is_complete(monkeypatch, 
     assert all(after == before + 1 for before, after, _ in holds)
     # It held as long as the rule asked: at least the gate's dwell, at most its budget.
     readings = [n for *_, n in holds]
-    assert min(readings) >= GateConfig().dwell and max(readings) <= 24
+    assert min(readings) >= rule.least and max(readings) <= rule.budget
     assert len(pipeline.measurements) >= 1
