@@ -332,6 +332,7 @@ def test_the_skill_never_lifts_before_the_gates_window_is_complete(
     import gymnasium as gym
 
     import tactile_gym  # noqa: F401 - registers the envs
+    from agents.episodes import run_episode
     from agents.scripted import scripted_policy
     from tactile_gym.envs import skills
 
@@ -354,12 +355,7 @@ def test_the_skill_never_lifts_before_the_gates_window_is_complete(
     monkeypatch.setattr(skills.Press, "_move", watched)
     policy = scripted_policy(env)
     for seed in (0, 1):
-        obs, _ = env.reset(seed=seed)
-        policy.reset()
-        done = False
-        while not done:
-            obs, _, terminated, truncated, _ = env.step(policy.get_action(obs))
-            done = terminated or truncated
+        run_episode(env, policy, seed)
     env.close()
     assert len(holds) >= 4
     # Every probe that held was judged by the gate (accepted or refused) before it let go.
