@@ -19,7 +19,8 @@ uncertainty is calibrated, and a press that measures the skin's force gradient a
 until its mean is good enough (``docs/design.md`` 5.2). The v2 and v1 ids
 (``LEGACY_ENV_IDS``; v1: the ideal sensor, a 6-D action, no tare) stay registered
 unchanged, so that models trained on them still run. The v0 ids are retired: their skin
-model gave no edge direction from a pure press and their start pose revealed the edge (``docs/design.md``, "Versions").
+model gave no edge direction from a pure press and their start pose revealed the edge
+(``docs/design.md``, "Versions").
 """
 
 __version__ = "0.3.0"
