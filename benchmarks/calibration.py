@@ -28,7 +28,9 @@ Four commands:
 Default seeds: the selection range (``agents.seeds``) for development; ``--seeds test`` for the
 final table. ``--axes vertical|tilted`` keeps a recording's episodes of vertical or tilted true
 axes (``errors``, ``replay``). ``--step-angle`` sets the scripted policy's turn (deg);
-``--env-kwargs`` passes keywords to ``gym.make`` (a noise-free sensor: ``"sensor:
+``--policy`` plays (``record``, ``play``) one of the adversaries of ``truth_free_reward.py``
+instead of the scripted policy, with their env keywords; ``--env-kwargs`` passes keywords to
+``gym.make`` (a noise-free sensor: ``"sensor:
 {force_noise_std: 0, moment_noise_std: 0, force_drift: 0, moment_drift: 0}"``).
 
     python benchmarks/calibration.py record --cache /tmp/calib
@@ -207,13 +209,13 @@ class _Recorder:
     def begin(self) -> None:
         self.episode = Episode()
 
-    def step(self, wrench, rotation, position) -> int:
-        added = self._step(wrench, rotation, position)
-        if added:
+    def step(self, sample):
+        perceived = self._step(sample)
+        if perceived.accepted:
             scene = self.base.scene
             pin, direction = scene.true_axis
             edge_point, edge_direction = scene.edge_line
-            for m in self.pipeline.measurements[-added:]:
+            for m in perceived.accepted:
                 row = (m.point, m.edge, m.point_std, m.edge_std, m.edge_cov)
                 row += (edge_point, edge_direction, scene.joint_angle)
                 for key, value in zip(MEASUREMENT_KEYS, row, strict=True):
@@ -221,7 +223,7 @@ class _Recorder:
             n = len(self.pipeline.measurements)
             if n in CHECKPOINTS:
                 self.episode.at[n] = score(self.pipeline.estimate, pin, direction)
-        return added
+        return perceived
 
 
 def play(
@@ -230,27 +232,35 @@ def play(
     covariance: str | None,
     env_kwargs: dict | None = None,
     step_angle: float | None = None,
+    policy: str = "scripted",
 ) -> tuple[list[Episode], dict]:
-    """Play the scripted policy on ``seeds`` of ``env_id``.
+    """Play the scripted policy, or an adversary, on ``seeds`` of ``env_id``.
 
     Args:
-        env_id: a v2 id.
+        env_id: a primitive or 6-D id (adversaries: a primitive id).
         seeds: the reset seeds, one episode each.
         covariance: the estimator's ``covariance`` swapped into the env's pipeline, or None
             for the env's own estimator.
         env_kwargs: keywords of ``gym.make``.
         step_angle: the scripted policy's turn between measurements, rad (None: its
             default).
+        policy: ``"scripted"`` or one of the adversaries of ``truth_free_reward.py``
+            (``ADVERSARIES``), played with its env keywords (the workspace centred at the
+            start).
 
     Returns:
         The episodes' scores and the recording (arrays, as ``record`` stores them).
     """
     import gymnasium as gym
+    from truth_free_reward import ADVERSARIES, TRUTH_FREE, Adversary
 
     import tactile_gym  # noqa: F401 - registers the envs
     from agents.scripted import ProberConfig, scripted_policy
 
-    env = gym.make(env_id, **(env_kwargs or {}))
+    kwargs = dict(env_kwargs or {})
+    if policy in ADVERSARIES:
+        kwargs = {**TRUTH_FREE, **kwargs}
+    env = gym.make(env_id, **kwargs)
     pipeline = env.unwrapped.pipeline
     if covariance is not None:
         own = pipeline.estimator
@@ -258,16 +268,19 @@ def play(
             mode=own.mode, loss=own.loss, prior=own.prior, covariance=covariance
         )
     recorder = _Recorder(env)
-    config = ProberConfig() if step_angle is None else ProberConfig(step_angle=step_angle)
-    policy = scripted_policy(env, config)
+    if policy == "scripted":
+        config = ProberConfig() if step_angle is None else ProberConfig(step_angle=step_angle)
+        agent = scripted_policy(env, config)
+    else:
+        agent = Adversary(env, policy)
     episodes, counts, truth = [], [], []
     for seed in seeds:
         obs, _ = env.reset(seed=seed)
-        policy.reset()
+        agent.reset()
         recorder.begin()
         done = False
         while not done:
-            obs, _, terminated, truncated, info = env.step(policy.get_action(obs))
+            obs, _, terminated, truncated, info = env.step(agent.get_action(obs))
             done = terminated or truncated
         pin, direction = info["true_axis_point"], info["true_axis_direction"]
         recorder.episode.final = score(pipeline.estimate, pin, direction)
@@ -476,27 +489,40 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("--env-kwargs", nargs="+", action=KeyValue, default={}, help=KEY_VALUE_HELP)
     parser.add_argument(
+        "--policy",
+        default="scripted",
+        help="record and play: the scripted policy or an adversary of truth_free_reward.py "
+        "('same spot', 'one edge', 'no turn'; their env keywords; default: scripted)",
+    )
+    parser.add_argument(
         "--axes",
         choices=("all", "vertical", "tilted"),
         default="all",
         help="errors and replay: only the episodes whose true axis is so (default: all)",
     )
     args = parser.parse_args(argv)
+    from truth_free_reward import ADVERSARIES
+
+    if args.policy not in ("scripted", *ADVERSARIES):
+        parser.error(f"--policy must be scripted or one of {ADVERSARIES}, got {args.policy!r}")
     if args.command != "play" and args.cache is None:
         parser.error(f"{args.command} needs --cache DIR")
     seeds = range(SEEDS[args.seeds], SEEDS[args.seeds] + args.episodes)
     step = None if args.step_angle is None else math.radians(args.step_angle)
     if args.command in ("record", "play"):
         print(
-            f"{args.command}: {args.episodes} episodes per id, {args.seeds} seeds "
-            f"{seeds.start}..{seeds.stop - 1}\n"
+            f"{args.command}: {args.policy}, {args.episodes} episodes per id, {args.seeds} "
+            f"seeds {seeds.start}..{seeds.stop - 1}\n"
         )
     results = []
     for env_id in args.ids:
-        path = None if args.cache is None else args.cache / f"{env_id.split('/')[-1]}.npz"
+        name = env_id.split("/")[-1]
+        if args.policy != "scripted":
+            name += "_" + args.policy.replace(" ", "_")
+        path = None if args.cache is None else args.cache / f"{name}.npz"
         if args.command == "record":
             args.cache.mkdir(parents=True, exist_ok=True)
-            _, record = play(env_id, seeds, None, args.env_kwargs, step)
+            _, record = play(env_id, seeds, None, args.env_kwargs, step, args.policy)
             np.savez(path, **record)
             print(f"{env_id}: {len(seeds)} episodes, {record['point'].shape[0]} measurements")
             continue
@@ -515,7 +541,7 @@ def main(argv: list[str] | None = None) -> None:
             if args.command == "replay":
                 episodes = replay(record, covariance)
             else:
-                episodes = play(env_id, seeds, covariance, args.env_kwargs, step)[0]
+                episodes = play(env_id, seeds, covariance, args.env_kwargs, step, args.policy)[0]
             results.append((env_id, covariance, episodes))
     if results:
         print_tables(results)

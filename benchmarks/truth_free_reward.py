@@ -23,8 +23,9 @@ The table gives, per policy, the mean truth-free return's error term ((U_0 - U_T
 and the true one ((E_0 - E_T) / 10 mm) over the same episodes, the mean final E and U, and
 their difference's mean with a 95 % bootstrap interval; then Kendall's tau between the order
 by mean truth-free return and the order by mean final E, and Spearman's rho between the final
-U and E of every episode pooled, and within the scripted policy's. The claims:
-``tests/test_truth_free_reward.py`` (slow) checks them on fewer episodes.
+U and E of every episode pooled, and within the scripted policy's. Results: docs/design.md
+6.9 ("The truth-free reward after it"). The claims:
+``tests/test_truth_free_reward.py`` checks the adversaries' claims on fewer episodes.
 """
 
 from __future__ import annotations
@@ -61,10 +62,13 @@ POLICIES = ("random", "scripted 1/3", "scripted", "learned", "same spot", "one e
 ADVERSARIES = POLICIES[4:]
 
 
-class _Fixed:
-    """A primitive policy of fixed or drawn actions (the adversaries)."""
+class Adversary:
+    """A primitive policy of fixed or drawn actions that never turns the link: ``kind`` is
+    one of ``ADVERSARIES`` (module docstring)."""
 
     def __init__(self, env: gym.Env, kind: str) -> None:
+        if kind not in ADVERSARIES:
+            raise ValueError(f"kind must be one of {ADVERSARIES}, got {kind!r}")
         self.kind = kind
         self.rng = np.random.default_rng(0)
 
@@ -120,7 +124,7 @@ def play(env_id: str, policy: str, seeds: list[int]) -> Outcomes:
     elif policy == "random":
         agent = make_policy("random", env)
     else:
-        agent = _Fixed(env, policy)
+        agent = Adversary(env, policy)
     rows = []
     for seed in seeds:
         obs, info = env.reset(seed=seed)

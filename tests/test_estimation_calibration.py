@@ -261,44 +261,49 @@ def test_nees_of_a_planar_estimate_is_its_position_nees() -> None:
     assert joint == position
 
 
-def _replay_recorded(multi_start: bool):
-    """The recorded presses of ``tests/data/consensus_local_minimum.npz`` through the
-    calibrated estimator with its 3D fit's ``multi_start`` as given: the last estimate, the
-    estimator and the true (pin, direction)."""
+def _replay_recorded():
+    """The recorded presses of ``tests/data/consensus_local_minimum.npz``, one by one,
+    through the calibrated estimator and through a single-start 3D fit refitted on the same
+    calibrated measurements (``Fit3D.refit``, as before the link angles): the two last
+    estimates, the estimator, the single-start fit and the true (pin, direction)."""
     with np.load(Path(__file__).parent / "data" / "consensus_local_minimum.npz") as data:
         rec = dict(data)
     prior = AxisPrior(
         rec["prior_pin"], rec["prior_pin_cov"], rec["prior_direction"], rec["prior_angle_std"]
     )
     est = JointAxisEstimator(mode="3d", loss="soft_l1", prior=prior, covariance="calibrated")
-    assert est._fit.multi_start
-    est._fit = Fit3D(est.loss, prior, multi_start=multi_start)
+    plain = Fit3D(est.loss, prior)
     for x, e, sx, se, cov in zip(
         rec["point"], rec["edge"], rec["point_std"], rec["edge_std"], rec["edge_cov"], strict=True
     ):
         est.add(x, e, sx, se, edge_cov=cov)
         fit = est.estimate()
-    return fit, est, (rec["axis_point"], rec["axis_direction"])
+        plain_fit = plain.refit(_calibrated_data(est))
+    return fit, plain_fit, est, plain, (rec["axis_point"], rec["axis_direction"])
+
+
+def _calibrated_data(est: JointAxisEstimator) -> Measurements:
+    """The estimator's presses with the calibrated model's noise, as its fits take them."""
+    n = est.n_measurements
+    return est._calibrated(
+        Measurements(est.points, est.edges, est._point_std[:n], est._edge_noise[:n])
+    )
 
 
 def test_a_full_fit_keeps_the_refined_last_solution_when_it_explains_more() -> None:
     """Eight presses recorded from the scripted policy (HingeProbe3DPrimitive-v2, seed
-    200835): at the seventh and eighth the full fit's consensus settles 15 mm off with a
-    position std of 1.7 mm. With ``multi_start`` (the calibrated estimator's) the refined
-    last solution, which explains the presses better, is kept: 1.2 mm off, within its
-    predicted error."""
-    guarded, est, (pin, u) = _replay_recorded(multi_start=True)
-    plain, plain_est, _ = _replay_recorded(multi_start=False)
+    200835): at the seventh and eighth a single-start full fit's consensus settles 15 mm
+    off with a position std of 1.7 mm. The calibrated estimator refines every start (the
+    closed form, the prior's axis, its last solution) and keeps the solution that explains
+    the presses better: 1.2 mm off, within its predicted error."""
+    guarded, plain, est, plain_fit, (pin, u) = _replay_recorded()
     position, _ = axis_error(guarded, pin, u, pin)
     assert position < 2.0 * guarded.position_std
     assert axis_error(plain, pin, u, pin)[0] > 5.0 * plain.position_std
-    n = est.n_measurements
-    data = est._calibrated(
-        Measurements(est.points, est.edges, est._point_std[:n], est._edge_noise[:n])
-    )
+    data = _calibrated_data(est)
     noise = Noise(data.point_std, data.edge_noise)
     guarded_cost, plain_cost = (
-        _total_cost(data.points, data.edges, noise, "soft_l1", e._fit.state, est.prior)
-        for e in (est, plain_est)
+        _total_cost(data.points, data.edges, noise, "soft_l1", fit.state, est.prior)
+        for fit in (est._fit, plain_fit)
     )
     assert guarded_cost < plain_cost

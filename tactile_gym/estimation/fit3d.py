@@ -15,6 +15,7 @@ its largest-magnitude component positive).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -33,6 +34,7 @@ from tactile_gym.estimation.general import (
     fit_general,
     invariants,
     refine_general,
+    refine_start,
     sign_norms,
     total_cost,
     whiten,
@@ -153,7 +155,7 @@ def fit_axis_3d(
     return _fit_state(x, e, w, noise, loss, f_scale, parallel_tol, prior)[0]
 
 
-def _fit_state(x, e, w, noise, loss, f_scale, parallel_tol, prior=None, multi_start=False):
+def _fit_state(x, e, w, noise, loss, f_scale, parallel_tol, prior=None):
     """The estimate of validated, oriented data and the :class:`Solution` of a
     general-case fit (else None); with the :class:`AxisPrior` ``prior`` if given (it needs
     ``noise``), from one measurement on (none: the prior's estimate).
@@ -172,7 +174,7 @@ def _fit_state(x, e, w, noise, loss, f_scale, parallel_tol, prior=None, multi_st
     if noise is not None:
         tol = max(tol, 4.0 * float(np.median(noise.worst_edge_std())))
     mean_dir, frac = parallel_fraction(e, tol)
-    est, sol = _fit_general_state(x, e, w, noise, loss, f_scale, prior, multi_start)
+    est, sol = _fit_general_state(x, e, w, noise, loss, f_scale, prior)
     if frac < (1.0 if loss == "linear" else 2.0 / 3.0):
         return est, sol
     est_par = fit_parallel(Problem(x, e, w, noise, loss, f_scale, prior), mean_dir)
@@ -231,7 +233,7 @@ def _fit_subset(x, e, w, noise, loss, f_scale, prior, mask, multi_start=False):
     return fit_general(sub, multi_start), sub
 
 
-def _update_state(x, e, noise: Noise, loss, state: Solution, prior=None, refuse_outliers=True):
+def _update_state(x, e, noise: Noise, loss, state: Solution, prior=None):
     """Warm-started general-case refit after measurements were appended to those of state.
 
     ``x``, ``e`` (edges oriented by continuity) and ``noise`` hold all N measurements,
@@ -241,7 +243,7 @@ def _update_state(x, e, noise: Noise, loss, state: Solution, prior=None, refuse_
     solver as :func:`fit_axis_3d`, with the :class:`AxisPrior` ``prior`` if given.
     Returns (estimate, solution), or None when a full refit is called for: a robust loss
     and a new measurement that is an outlier under ``state`` (the inlier set may be
-    changing; not with ``refuse_outliers=False``), or a degenerate result.
+    changing), or a degenerate result.
     """
     n_old = state.mask.shape[0]
     n = x.shape[0]
@@ -266,7 +268,7 @@ def _update_state(x, e, noise: Noise, loss, state: Solution, prior=None, refuse_
         ep = prob.e.copy()
         ep[-m:] *= sign[:, None]
         prob.e = ep
-    if refuse_outliers and loss != "linear" and (np.where(flip, flipped, keep) >= CHI2_99[2]).any():
+    if loss != "linear" and (np.where(flip, flipped, keep) >= CHI2_99[2]).any():
         return None
     u, p, k, c, wh = refine_general(prob, u, p, k, c, wh)
     est = finish_general(prob, u, p, k, c, wh)
@@ -274,6 +276,19 @@ def _update_state(x, e, noise: Noise, loss, state: Solution, prior=None, refuse_
         return None
     prob.solution = (u, p, k, c)
     return est, _solution_of(prob, mask, edges)
+
+
+def _refine_axis(x, e, noise: Noise, loss, prior, u, p):
+    """(estimate, :class:`Solution`) of the general model refined from the axis (u, p)
+    (world frame), its invariants taken from the measurements; None if degenerate."""
+    prob = Problem(x, e, np.ones(x.shape[0]), noise, loss, None, prior)
+    pc = p - prob.centre
+    pc = pc - (pc @ u) * u
+    est, (u, pc, k, c) = refine_start(prob, u, pc, *invariants(prob.x, prob.e, u, pc))
+    if est.degenerate:
+        return None
+    prob.solution = (u, pc, k, c)
+    return est, _solution_of(prob, np.ones(x.shape[0], dtype=bool), prob.e)
 
 
 def _total_cost(x, e, noise: Noise, loss, state: Solution, prior=None) -> float:
@@ -297,26 +312,8 @@ class Fit3D(AxisFit):
     solution (the inlier set may be changing), or when its result is degenerate. The state
     is a :class:`~tactile_gym.estimation.general.Solution`.
 
-    With ``multi_start`` the general model is refined from each of its starts and the
-    solution that explains the measurements best is kept
-    (:func:`~tactile_gym.estimation.general.total_cost`): with a prior, from the closed form
-    and from the prior's axis (:func:`~tactile_gym.estimation.general.fit_general`), and at
-    a full fit that started from a consensus, after an earlier general-model solution, also
-    from that solution. A consensus over minimal fits can settle the robust fit in a
-    local minimum far from the last solution (docs/design.md 6.9: 15 mm off with a 1.7 mm
-    std, where the refined last solution explains the presses better and lies 1.2 mm off).
-
-    Args:
-        loss: as for :class:`~tactile_gym.estimation.interface.AxisFit`.
-        prior: as for :class:`~tactile_gym.estimation.interface.AxisFit`.
-        multi_start: keep the best of several refined starts (above).
+    The calibrated estimator fits one line per link angle instead (:meth:`fit_lines`).
     """
-
-    def __init__(
-        self, loss: str = "soft_l1", prior: AxisPrior | None = None, multi_start: bool = False
-    ) -> None:
-        super().__init__(loss, prior)
-        self.multi_start = multi_start
 
     def edge_noise(
         self, edge: np.ndarray, dims: int, edge_std: float, edge_cov: np.ndarray | None
@@ -329,7 +326,6 @@ class Fit3D(AxisFit):
 
     def fit(self, data: Measurements) -> AxisEstimate:
         noise = Noise(data.point_std.copy(), data.edge_noise.copy())
-        last = self._state
         est, self._state = _fit_state(
             data.points.copy(),
             data.edges.copy(),
@@ -339,22 +335,92 @@ class Fit3D(AxisFit):
             None,
             _DEFAULT_PARALLEL_TOL,
             self.prior,
-            self.multi_start,
         )
         self._n_full = data.n
-        consensus = self.loss != "linear" and data.n >= CONSENSUS_MIN_N
-        if self.multi_start and consensus and last is not None and self._state is not None:
-            warm = _update_state(
-                data.points, data.edges, noise, self.loss, last, self.prior, refuse_outliers=False
-            )
-            if warm is not None and self._cost(data, noise, warm[1]) < self._cost(
-                data, noise, self._state
-            ):
-                est, self._state = warm
         return est
 
-    def _cost(self, data: Measurements, noise: Noise, state: Solution) -> float:
-        return _total_cost(data.points, data.edges, noise, self.loss, state, self.prior)
+    def fit_lines(
+        self, lines: Measurements, parallel_lines: Callable[[], Measurements] | None = None
+    ) -> AxisEstimate:
+        """The calibrated estimator's fit (docs/design.md 6.9) of one line per link angle.
+
+        The general model is refined from each of its starts (the closed form, the prior's
+        axis, and the last call's solution, whose lines have since changed) and the one of
+        least :func:`~tactile_gym.estimation.general.total_cost` is kept: a consensus over
+        minimal fits can settle the robust fit in a local minimum far from the last solution
+        (docs/design.md 6.9: 15 mm off with a 1.7 mm std, where the refined last solution
+        explains the presses better and lies 1.2 mm off). The parallel
+        model (eq. 9-10) is fitted to ``parallel_lines()`` (the presses grouped by their
+        lines alone: at every link angle its edges have one direction) when their edges lie
+        along one direction, as in :func:`fit_axis_3d`, and chosen as there
+        (:func:`~tactile_gym.estimation.selection.prefer_parallel`), unless the prior rules
+        its axis out (its direction beyond the prior's 5-sigma gate) while the general
+        model's it does not: the presses of one link angle are parallel lines that the
+        parallel model explains exactly, and a model that the prior rules out is not chosen
+        on the strength of measurements the other leaves unexplained.
+
+        With a prior, data that do not identify the axis leave the estimate at the prior's,
+        with its covariance (``method="prior"``): one line (one link angle) for the general
+        model, and fewer than two lines for the parallel one.
+
+        Args:
+            lines: the fused lines of the link angles (``link_angles``).
+            parallel_lines: the lines grouped for the parallel model, made on demand; None:
+                the general model only.
+        """
+        prior = self.prior
+        if prior is not None and lines.n == 0:
+            return prior.estimate()
+        x, e = lines.points.copy(), lines.edges.copy()
+        noise = Noise(lines.point_std.copy(), lines.edge_noise.copy())
+        if prior is not None and lines.n == 1:
+            # One link angle: the line's angle and distance to the axis are free, so it says
+            # nothing about the axis; the estimate stays the prior's (``method="prior"``).
+            est, sol = prior.estimate(), None
+        elif prior is None and lines.n < 3:
+            est, sol = degenerate_estimate("3d", lines.n, planar=False), None
+        else:
+            w = np.ones(lines.n)
+            est, sol = _fit_general_state(x, e, w, noise, self.loss, None, prior, True)
+        last = self._state
+        if last is not None and sol is not None:
+            warm = _refine_axis(x, e, noise, self.loss, prior, last.u, last.p)
+            if warm is not None and (
+                sol is None
+                or _total_cost(x, e, noise, self.loss, warm[1], prior)
+                < _total_cost(x, e, noise, self.loss, sol, prior)
+            ):
+                est, sol = warm
+        if sol is not None:
+            self._state = sol
+        # The parallel model's axis lies along the edges of one link angle: along the
+        # general lines' largest group of parallel ones (one line when nothing turned).
+        if parallel_lines is None or self._ruled_out(
+            parallel_fraction(e, _DEFAULT_PARALLEL_TOL)[0]
+        ):
+            return est
+        par = parallel_lines()
+        noise = Noise(par.point_std.copy(), par.edge_noise.copy())
+        tol = max(_DEFAULT_PARALLEL_TOL, 4.0 * float(np.median(noise.worst_edge_std())))
+        mean_dir, frac = parallel_fraction(par.edges, tol)
+        if (prior is not None and par.n < 2) or frac < 2.0 / 3.0 or self._ruled_out(mean_dir):
+            return est
+        w = np.ones(par.n)
+        prob = Problem(par.points.copy(), par.edges.copy(), w, noise, self.loss, None, prior)
+        est_par = fit_parallel(prob, mean_dir)
+        if est_par.degenerate or (
+            self._ruled_out(est_par.direction)
+            and not (est.degenerate or self._ruled_out(est.direction))
+        ):
+            return est
+        if sol is None or est.degenerate or prefer_parallel(prob, sol, est_par):
+            return est_par
+        return est
+
+    def _ruled_out(self, direction: np.ndarray) -> bool:
+        """Whether the prior (if any) rules out an axis along ``direction``: beyond its
+        5-sigma gate (``OUTLIER_GATE``, two degrees of freedom)."""
+        return self.prior is not None and self.prior.direction_z2(direction) > OUTLIER_GATE[2]
 
     def update(self, data: Measurements) -> AxisEstimate | None:
         if self._state is None or self._grown(data.n):

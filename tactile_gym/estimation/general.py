@@ -57,6 +57,7 @@ __all__ = [
     "linear_init",
     "linearise",
     "refine_general",
+    "refine_start",
     "sign_norms",
     "sign_residuals",
     "Solution",
@@ -294,7 +295,7 @@ def fit_general(prob: Problem, multi_start: bool = False) -> AxisEstimate:
         if start is None:
             continue
         prob.e = edges
-        est, solution = _refine_start(prob, *start)
+        est, solution = refine_start(prob, *start)
         if est.degenerate:
             continue
         cost = total_cost(prob, *solution) if len(starts) > 1 else 0.0
@@ -309,7 +310,7 @@ def fit_general(prob: Problem, multi_start: bool = False) -> AxisEstimate:
     return est
 
 
-def _refine_start(prob: Problem, u, p, k, c):
+def refine_start(prob: Problem, u, p, k, c):
     """(estimate, (u, p, k, c)) refined from one start; edges that fit the other way round
     (a wild edge between two good ones can have misled the continuity rule) are re-oriented
     in ``prob`` and the fit polished once."""
@@ -326,9 +327,14 @@ def total_cost(prob: Problem, u, p, k, c) -> float:
     axis, plus the prior's: what solutions of one problem are compared by, whichever
     measurements each kept.
 
-    The residuals' predicted covariance depends on the axis (the levers), so the cost holds
-    the log-determinant of each measurement's, as a Gaussian likelihood does: without it,
-    an axis far from the contacts would predict large residuals and look cheap.
+    It is the negative log posterior with each measurement's link angle (and its place
+    along the axis) profiled out, as the fit itself takes them: the squared whitened
+    residuals are the measured line's distance from the model's nearest line in the metric
+    of its noise, and the normalisation is that of the measurement's own covariance, which
+    does not depend on the axis. The log-determinant of the residuals' covariance, which
+    grows with the levers, does not belong in it: it is the flat prior on those latent
+    angles mapped to the residuals, and it lowers the cost of an axis through the contact
+    points whatever the measurements say (docs/design.md 6.9).
     """
     wh = whiten(prob, u, p)
     f_scale = _resolve_f_scale(prob, (u, p, k, c), wh)
@@ -337,7 +343,6 @@ def total_cost(prob: Problem, u, p, k, c) -> float:
         for pair in sign_residuals(prob, u, p, k, c, wh)
     )
     cost = 0.5 * f_scale * f_scale * float(np.minimum(keep, flipped).sum())
-    cost -= float(np.log(wh[:, 0] * wh[:, 2]).sum())
     if prob.prior is not None:
         z = prob.prior.residuals(u, p)[0]
         cost += 0.5 * float(z @ z)

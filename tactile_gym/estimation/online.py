@@ -27,6 +27,7 @@ from tactile_gym.estimation.calibration import CALIBRATED, press_noise, spot_cou
 from tactile_gym.estimation.fit3d import Fit3D
 from tactile_gym.estimation.fits import PlanarFit
 from tactile_gym.estimation.interface import Measurements
+from tactile_gym.estimation.link_angles import LinkAngles, as_measurements
 from tactile_gym.estimation.prior import AxisPrior, check_prior
 from tactile_gym.estimation.robust import check_loss
 from tactile_gym.spatial import SIGN_LOOKBACK, orient_like
@@ -73,8 +74,13 @@ class JointAxisEstimator:
     out, and each spot's bias counted once per press at that spot, so that repeated presses
     at one spot do not average it away. With a prior its ``position_std`` is taken at the
     axis point nearest the prior's pin, where the task measures the position error
-    (docs/design.md 6.7). Its 3D fit keeps the best of several refined starts (``Fit3D``'s
-    ``multi_start``), so that a local minimum does not make a confident wrong estimate.
+    (docs/design.md 6.7). Its fits take one line per link angle: presses whose lines are one
+    line within their noise are grouped and fused (:mod:`~tactile_gym.estimation.link_angles`),
+    so that presses that never turned the link count as one line, which says nothing about
+    the axis: until a second link angle the estimate stays the prior's (``method="prior"``).
+    Its 3D fit keeps the best of several refined starts and the parallel model only where
+    the prior admits it (``Fit3D.fit_lines``), so that a local minimum does not make a
+    confident wrong estimate.
 
     Both modes use ``loss``; how each fit uses it and warm-starts is told by
     :class:`~tactile_gym.estimation.fits.PlanarFit` and
@@ -134,12 +140,17 @@ class JointAxisEstimator:
         self._edge_shared = np.empty_like(self._edge_noise)
         self._point_shared = np.empty(cap)
         self._dirs: list[np.ndarray] = []  # representatives of distinct edge directions
+        # covariance="calibrated": the presses grouped by link angle (link_angles.py), for the
+        # general and planar models and, by their lines alone, for the parallel model.
+        planar = self.mode == "planar"
+        self._angles = LinkAngles(planar)
+        self._parallel_angles = None if planar else LinkAngles(planar, by_direction=False)
         self._cached: AxisEstimate | None = None
         self._stale = True
         if self.mode == "planar":
             self._fit = PlanarFit(self.loss, self.prior)
         else:
-            self._fit = Fit3D(self.loss, self.prior, multi_start=self.covariance == "calibrated")
+            self._fit = Fit3D(self.loss, self.prior)
 
     @property
     def n_measurements(self) -> int:
@@ -251,6 +262,9 @@ class JointAxisEstimator:
         if self.covariance == "calibrated":
             self._edge_shared[n] = edge_shared
             self._point_shared[n] = point_shared
+            for angles in (self._angles, self._parallel_angles):
+                if angles is not None:
+                    angles.add(self._points[n], self._edges[n], sx * sx, noise)
         self._n = n + 1
         if len(self._dirs) < 3:
             tol = math.cos(max(_DISTINCT_TOL, 3.0 * se))
@@ -271,6 +285,24 @@ class JointAxisEstimator:
             np.sqrt(np.square(data.point_std) + extra * self._point_shared[:n]),
             data.edge_noise + extra.reshape((n,) + (1,) * (shared.ndim - 1)) * shared,
         )
+
+    def _fit_link_angles(self, data: Measurements) -> AxisEstimate:
+        """The calibrated fit: of one line per link angle (``link_angles.py``), each fused
+        from its presses' noise with their spot's share counted (``data``)."""
+        if data.n == 0:
+            return self._fit.fit(data)
+        planar = self.mode == "planar"
+        lines = as_measurements(self._angles.fused(*_arrays(data)), planar)
+        if planar:
+            if self.prior is not None and lines.n < 2:
+                # One link angle says nothing about the axis (Fit3D.fit_lines).
+                return self.prior.estimate(planar=True)
+            return self._fit.fit(lines)
+
+        def parallel_lines() -> Measurements:
+            return as_measurements(self._parallel_angles.fused(*_arrays(data)), planar)
+
+        return self._fit.fit_lines(lines, parallel_lines)
 
     def _at_pin(self, est: AxisEstimate) -> AxisEstimate:
         """The estimate with its ``position_std`` taken at the axis point nearest the
@@ -315,10 +347,11 @@ class JointAxisEstimator:
             self._points[:n], self._edges[:n], self._point_std[:n], self._edge_noise[:n]
         )
         if self.covariance == "calibrated":
-            data = self._calibrated(data)
-        est = self._fit.refit(data)
-        if self.covariance == "calibrated" and prior is not None:
-            est = self._at_pin(est)
+            est = self._fit_link_angles(self._calibrated(data))
+            if prior is not None:
+                est = self._at_pin(est)
+        else:
+            est = self._fit.refit(data)
         if prior is not None:
             # Flagged if degenerate (the prior keeps the system regular; only overflowing
             # input could), never None.
@@ -328,3 +361,9 @@ class JointAxisEstimator:
         if self.mode == "3d" and len(self._dirs) < 3 and est.method != "3d-parallel":
             return None
         return est
+
+
+def _arrays(data: Measurements) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A fit's measurements as :meth:`LinkAngles.fused` takes them: points, edges, point
+    variances, edge noise."""
+    return data.points, data.edges, np.square(data.point_std), data.edge_noise

@@ -182,6 +182,15 @@ class AxisPrior:
             method="prior",
         )
 
+    def direction_z2(self, direction: np.ndarray) -> float:
+        """The squared whitened residual of the prior's direction term (two degrees of
+        freedom, as the fits weigh it) at an axis along ``direction`` (any length, either
+        sign): ``2 theta^2 / angle_std^2``, theta the angle between the two axes."""
+        u = np.asarray(direction, dtype=float)
+        cos = abs(float(u @ self.direction)) / math.sqrt(float(u @ u))
+        theta = math.acos(min(cos, 1.0))
+        return 2.0 * theta * theta / self.effective_angle_std**2
+
     @property
     def effective_angle_std(self) -> float:
         """``angle_std`` floored at ``ANGLE_STD_FLOOR``, rad."""
