@@ -10,10 +10,11 @@ import math
 from pathlib import Path
 
 import numpy as np
+from scipy import stats
 
 from tactile_gym.plotting import add_legend, draw_estimate, draw_measurements
 
-__all__ = ["PAPER_TABLE", "markdown_table", "plot"]
+__all__ = ["PAPER_TABLE", "markdown_table", "mean_interval", "plot"]
 
 #: Table I of the paper: mean joint-position error, mm.
 PAPER_TABLE = {
@@ -24,12 +25,25 @@ PAPER_TABLE = {
 }
 
 
+def mean_interval(errors, level: float = 0.95) -> tuple[float, float, float]:
+    """The mean of the finite ``errors`` and its ``level`` confidence interval (Student's t;
+    the interval is the mean alone for fewer than two)."""
+    e = np.asarray(errors, dtype=float)
+    e = e[np.isfinite(e)]
+    mean = float(e.mean()) if len(e) else math.nan
+    if len(e) < 2:
+        return mean, mean, mean
+    half = float(stats.t.ppf(0.5 + level / 2, len(e) - 1) * e.std(ddof=1) / math.sqrt(len(e)))
+    return mean, mean - half, mean + half
+
+
 def _stats(errors: list[float]) -> str:
     e = np.asarray(errors, dtype=float)
     ok = e[np.isfinite(e)]
     if not len(ok):
         return "failed"
-    text = f"{ok.mean():.1f} / {np.median(ok):.1f} / {np.percentile(ok, 90):.1f}"
+    mean, low, high = mean_interval(ok)
+    text = f"{mean:.1f} ({low:.1f}-{high:.1f}) / {np.median(ok):.1f} / {np.percentile(ok, 90):.1f}"
     return text if len(ok) == len(e) else f"{text} ({len(e) - len(ok)} failed)"
 
 
@@ -43,11 +57,12 @@ def markdown_table(results: dict, trials: int, seeds: int, schemes: dict) -> str
     """
     lines = [
         f"Joint-position error |(p, q)_est - (p, q)_true| in mm, {seeds} seed(s) x {trials} "
-        "trials per cell (mean / median / P90); paper = Table I mean.",
+        "trials per cell (mean (95 % CI) / median / P90); paper = Table I mean; accepted: the"
+        " share of the measurement presses the gate accepted.",
         "",
         "| condition | measurements | contact | proposed | paper | simple | paper |"
-        " simple / proposed (means) | presses per measurement |",
-        "|---|---|---|---|---|---|---|---|---|",
+        " simple / proposed (means) | presses per measurement | accepted |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for key, cell in results.items():
         condition, scheme, case = key if len(key) == 3 else ("nominal", *key)
@@ -55,11 +70,12 @@ def markdown_table(results: dict, trials: int, seeds: int, schemes: dict) -> str
         prop, simp = np.array(cell["proposed_mm"]), np.array(cell["simple_mm"])
         paper = scheme == "paper" and condition == "nominal"
         presses = np.mean([t.presses.mean() for t in cell["trials"]])
+        accepted = np.mean([len(t.points) / len(t.presses) for t in cell["trials"]])
         lines.append(
             f"| {condition} | {n} x {math.degrees(step):.0f} deg | {case} | {_stats(prop)} |"
             f" {PAPER_TABLE[(case, 'proposed')] if paper else '-'} | {_stats(simp)} |"
             f" {PAPER_TABLE[(case, 'simple')] if paper else '-'} |"
-            f" {np.nanmean(simp) / np.nanmean(prop):.1f}x | {presses:.1f} |"
+            f" {np.nanmean(simp) / np.nanmean(prop):.1f}x | {presses:.1f} | {accepted:.0%} |"
         )
     return "\n".join(lines)
 

@@ -3,7 +3,10 @@ condition and what the operator knows of it.
 
 The operator knows only the nominal layout (:class:`NominalLayout`), read off the grip's
 documented configuration; the conditions change the world (the shipped env presets), never
-the protocol; the F/T sensor is one of ``SENSORS``.
+the protocol; the F/T sensor is one of ``SENSORS``. The sensing is told the condition's skin
+and sensor (:func:`configured`); the world factors (``WORLD_FACTORS``, ``--world``) change the
+world only, untold: the skin's stiffness and the sensor's noise and drift a real robot meets
+are known to a factor of two at best.
 """
 
 from __future__ import annotations
@@ -94,15 +97,71 @@ class NominalLayout:
         return start, outward
 
 
-def make_scene(condition: str, sensor: str = "realistic", physics: str = "v2") -> ProbeScene:
-    """The paper's scene under a condition of ``CONDITIONS``, the hand holding the grip,
-    with a sensor of ``SENSORS`` (a condition's ``sensor_model`` and ``sensor`` fields
-    change it) and the contact step ``physics`` (``tactile_gym.sim.scene.PHYSICS``)."""
+#: What ``--world`` may change, untold to the sensing, each as a factor of the configured
+#: value: the skin's normal stiffness (its tangential one follows), the sensor's noise (force
+#: and moment) and its drift (force and moment).
+WORLD_FACTORS = ("skin_stiffness", "noise", "drift")
+
+
+def parse_world(text: str) -> dict[str, float]:
+    """``--world``'s ``name=factor`` pairs (space- or comma-separated) of ``WORLD_FACTORS``.
+
+    Raises:
+        ValueError: an unknown name, or a factor that is not a number in (0, 100].
+    """
+    world = {}
+    for pair in text.replace(",", " ").split():
+        name, _, value = pair.partition("=")
+        if name not in WORLD_FACTORS:
+            raise ValueError(
+                f"--world takes name=factor pairs of {', '.join(WORLD_FACTORS)}, got {pair!r}"
+            )
+        try:
+            factor = float(value)
+        except ValueError:
+            factor = math.nan
+        if not 0.0 < factor <= 100.0:
+            raise ValueError(f"--world {name} must be a factor in (0, 100], got {value!r}")
+        world[name] = factor
+    return world
+
+
+def configured(condition: str, sensor: str = "realistic") -> tuple[SkinConfig, SensorConfig]:
+    """The skin and the F/T sensor of a condition of ``CONDITIONS`` with a sensor of
+    ``SENSORS`` (a condition's ``sensor_model`` and ``sensor`` fields change it): what the
+    sensing is told."""
+    if condition not in CONDITIONS:
+        raise ValueError(f"condition must be one of {sorted(CONDITIONS)}, got {condition!r}")
     change = CONDITIONS[condition]
     base = SENSORS[change.get("sensor_model", sensor)]
+    return SkinConfig(**change.get("skin", {})), replace(base, **change.get("sensor", {}))
+
+
+def make_scene(
+    condition: str,
+    sensor: str = "realistic",
+    world: dict[str, float] | None = None,
+    physics: str = "v2",
+) -> ProbeScene:
+    """The paper's scene under a condition of ``CONDITIONS``, the hand holding the grip,
+    with a sensor of ``SENSORS`` (:func:`configured`), the world factors of ``world``
+    (``WORLD_FACTORS``; :func:`parse_world`) applied to the scene alone, and the contact step
+    ``physics`` (``tactile_gym.sim.scene.PHYSICS``)."""
+    skin, sensor_config = configured(condition, sensor)
+    world = world or {}
+    unknown = set(world) - set(WORLD_FACTORS)
+    if unknown:
+        raise ValueError(f"world factors must be from {WORLD_FACTORS}, got {sorted(unknown)}")
+    skin = replace(skin, normal_stiffness=skin.normal_stiffness * world.get("skin_stiffness", 1.0))
+    scaled = {
+        "noise": ("force_noise_std", "moment_noise_std"),
+        "drift": ("force_drift", "moment_drift"),
+    }
+    changes = {
+        name: getattr(sensor_config, name) * world.get(factor, 1.0)
+        for factor, names in scaled.items()
+        for name in names
+    }
     return ProbeScene(
-        condition_object(condition),
-        SkinConfig(**change.get("skin", {})),
-        replace(base, **change.get("sensor", {})),
-        physics=physics,
+        condition_object(condition), skin, replace(sensor_config, **changes), physics=physics
     )

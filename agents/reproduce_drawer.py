@@ -51,7 +51,7 @@ from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig
 from tactile_gym.sim.scene import PHYSICS
 
 from .cli import make_parser, progress_bar, run_main
-from .reproduce_paper import DOWN, find_edge, lift
+from .reproduce_paper import DOWN, Finger, find_edge, lift, log_header
 
 __all__ = ["CASES", "DrawerLayout", "Trial", "reproduce"]
 
@@ -171,10 +171,11 @@ def run_trial(
     }
     home = np.r_[starts[0][0], layout.thickness + HOME_HEIGHT]
     scene.reset(0.0, home, DOWN, object_config=config, rng=rng)
+    finger = Finger(scene, log_header(scene, "nominal"), rng)
     points, edges, stds, lines, configs, last = [], [], [], [], [], {}
     for k in range(DISPLACEMENTS):
         if k:
-            lift(scene, layout)
+            lift(finger, layout)
             pull_by_hand(scene, k * PULL)
         for line in (0, 1):
             start, outward = starts[line]
@@ -185,7 +186,7 @@ def run_trial(
             elif k:
                 # Where the last search of this edge ended, on the drawer as it moved.
                 start = carried_by_hand(scene, last[line], PULL)
-            pressed, _, _ = find_edge(scene, start, outward, layout, rng)
+            pressed, _, _ = find_edge(finger, start, outward, layout)
             last[line] = pressed.centre[:2]
             touch = pressed.touch
             ok = pressed.touched and touch.valid and touch.observable

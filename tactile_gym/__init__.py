@@ -15,10 +15,12 @@ when an env is made.
 
 The v3 ids are the current ones: the realistic F/T sensor (offset, drift, the fingertip's
 weight) with taring, as v2, on a leaner contact step, with an estimator whose predicted
-uncertainty is calibrated. The v2 and v1 ids (``LEGACY_ENV_IDS``; v1: the ideal sensor, a 6-D
-action, no tare) stay registered unchanged, so that models trained on them still run. The v0
-ids are retired: their skin model gave no edge direction from a pure press and their start
-pose revealed the edge (``docs/design.md``, "Versions").
+uncertainty is calibrated, and a press that measures the skin's force gradient and holds
+until its mean is good enough (``docs/design.md`` 5.2). The v2 and v1 ids
+(``LEGACY_ENV_IDS``; v1: the ideal sensor, a 6-D action, no tare) stay registered
+unchanged, so that models trained on them still run. The v0 ids are retired: their skin
+model gave no edge direction from a pure press and their start pose revealed the edge
+(``docs/design.md``, "Versions").
 """
 
 __version__ = "0.3.0"
@@ -29,10 +31,18 @@ _PLANAR = {"families": ("scissors",), "estimator": "planar"}
 # still builds it.
 _3D = {"families": ("scissors", "door", "tilted"), "estimator": "3d"}
 
+# The adaptive press (docs/design.md 5.2): every skill's press steps by the force gradient it
+# measures, and the gate measures a still press, and a probe holds, until the predicted edge
+# error of its mean is 2 deg (rad here), within 12 readings, its steadiness judged on the trend.
+_ADAPTIVE_PRESS = {
+    "measure_gradient": True,
+    "gate": {"edge_std_target": 0.03490658503988659, "dwell_budget": 12, "steady_rule": "trend"},
+}
 # Each version's keywords over HingeProbeConfig's defaults (docs/design.md 10). v3: the lean
-# contact step (3.6) and the calibrated covariance (6.9). v2: the defaults. v1: the ideal
-# sensor (white noise only), no tare and the gate without the preload rule (7.2).
-_V3 = {"physics": "v3", "estimator_covariance": "calibrated"}
+# contact step (3.6), the calibrated covariance (6.9) and the adaptive press (5.2). v2: the
+# defaults. v1: the ideal sensor (white noise only), no tare and the gate without the preload
+# rule (7.2).
+_V3 = {"physics": "v3", "estimator_covariance": "calibrated", **_ADAPTIVE_PRESS}
 _V1 = {"sensor_model": "ideal", "tare_action": False, "gate": {"preload_rule": False}}
 #: Every registered version, newest first, with its keywords.
 _VERSIONS = (("v3", _V3), ("v2", {}), ("v1", _V1))

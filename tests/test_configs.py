@@ -575,8 +575,6 @@ def _same_value(a: Any, b: Any) -> bool:
 
 #: Parameters that share a config field's name but not its meaning.
 NOT_THE_FIELD = {
-    # The skill's hold, which primitive_skills sets to GateConfig.dwell + 1.
-    ("Press.__init__", "dwell"),
     # The contact-point noise of one reading along a trace, not the gate's error of a
     # measured point handed to the estimator.
     ("edge_from_trace", "point_std"),

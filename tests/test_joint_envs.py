@@ -14,7 +14,7 @@ from tactile_gym.envs.joint_config import JointProbeConfig
 from tactile_gym.envs.joint_task import JointStepFacts, JointTypeTask
 from tactile_gym.envs.task import TaskConfig
 from tactile_gym.estimation import JOINT_TYPES, OUTCOMES, JointTypeEstimator
-from tactile_gym.perception import JointPipeline, LabelConfig
+from tactile_gym.perception import JointPipeline
 from tactile_gym.sensing import FingertipGeometry
 
 PLANAR, SPATIAL = "tactile_gym/JointProbePrimitive-v0", "tactile_gym/JointProbe3DPrimitive-v0"
@@ -174,17 +174,9 @@ def test_a_drag_starts_a_configuration_and_a_press_does_not():
     env.close()
 
 
-def _replay(samples, prior) -> JointPipeline:
-    config = JointProbeConfig(physics="v3")
-    geometry = FingertipGeometry()
-    pipeline = JointPipeline(
-        geometry,
-        config.sensor_config,
-        config.skin_config.normal_stiffness,
-        config.gate_config,
-        JointTypeEstimator("planar", prior),
-        LabelConfig(),
-    )
+def _replay(samples, config: JointProbeConfig) -> JointPipeline:
+    """A pipeline built from the env's configuration alone, fed a log of samples."""
+    pipeline = config.pipeline(FingertipGeometry())
     pipeline.reset(samples[0])
     for sample in samples[1:]:
         pipeline.step(sample)
@@ -205,7 +197,7 @@ def test_the_labels_come_from_the_stream_alone():
         obs, _, terminated, truncated, _ = env.step(policy.get_action(obs))
         done = terminated or truncated
     live = env.unwrapped.pipeline
-    replayed = _replay(samples, live.estimator.prior)
+    replayed = _replay(samples, env.unwrapped.control_env.config)
     assert live.configuration >= 2 and len(live.lines) >= 2
     assert replayed.measurement_labels == live.measurement_labels
     np.testing.assert_allclose(

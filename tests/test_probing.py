@@ -14,6 +14,7 @@ import pytest
 from tactile_gym.sensing import (
     TOUCH_FORCE,
     FingertipGeometry,
+    HoldRule,
     PressConfig,
     PressController,
     SensorConfig,
@@ -60,8 +61,8 @@ def test_press_reaches_the_force_on_the_noisy_reading_then_holds_and_averages():
     # It approached at max_step, then stepped by the force error over the stiffness.
     assert plane.moves[0] == 0.0005 and press.touch_travel is not None
     assert all(abs(m) <= 0.0005 for m in plane.moves)
-    # Reading on extends the average without moving.
-    press.extend(4)
+    # Reading on extends the average without moving (a rule over all the readings held).
+    press.extend(HoldRule(10))
     run_press(press, plane.read, plane.move)
     assert press.phase == "done" and press.readings == 10 and plane.moves[-4:] == [0.0] * 4
 

@@ -48,22 +48,35 @@ def test_reduced_run_writes_table1(tmp_path):
     assert sliding["proposed_mm"][0] < 6.0 < 3 * 6.0 < sliding["simple_mm"][0]
 
 
+def _finger(scene, rng, sensor="realistic"):
+    return rp.Finger(scene, rp.log_header(scene, "nominal", sensor), rng)
+
+
 @pytest.mark.parametrize("offset", [-0.008, -0.003, 0.005])
 def test_edge_search_finds_the_edge_by_touch(scene, offset):
-    scene.reset(0.3, [0.0, 0.1, 0.1], rp.DOWN)
+    rng = np.random.default_rng(0)
+    scene.reset(0.3, [0.0, 0.1, 0.1], rp.DOWN, rng=rng)
     point, direction, outward = _true_edge(scene)
     start = (point + 0.04 * direction + offset * outward)[:2]
     # The search is told a direction across the edge 10 degrees off.
     c, s = math.cos(0.17), math.sin(0.17)
     told = np.array([c * outward[0] - s * outward[1], s * outward[0] + c * outward[1]])
-    pressed, _, presses = rp.find_edge(scene, start, told, NOMINAL, np.random.default_rng(0))
+    finger = _finger(scene, rng)
+    pressed, _, presses = rp.find_edge(finger, start, told, NOMINAL)
     past = (pressed.centre - point) @ outward  # sphere centre past the edge line
     assert -0.001 < past < 0.002
     # The corrected point is the truncated patch's pressure centre, 0.9-3.1 mm inside the face
     # (docs/design.md 4.5).
     assert -0.0032 < (pressed.point - point) @ outward < 0.0
     assert math.degrees(math.acos(abs(pressed.edge @ direction))) < 3.0
-    assert pressed.readings == rp.MEASURE_READINGS and presses <= 5
+    assert presses <= 5
+    # The pipeline's gate measured the press the search ended on, on the readings it held:
+    # as many as its hold rule asked for.
+    rule = rp.GATE.hold_rule
+    assert pressed.measurement is not None
+    assert finger.pipeline.measurements == [pressed.measurement]
+    assert rule.least <= pressed.readings <= rule.budget
+    np.testing.assert_allclose(pressed.measurement.point, pressed.point, atol=1e-12)
 
 
 def test_press_stops_on_the_noisy_reading():
@@ -82,7 +95,8 @@ def test_press_stops_on_the_noisy_reading():
 
         biased.control_step = recording_step
         xy = np.array([0.06, 0.105])  # the middle of the grip's top face
-        pressed = rp.press(biased, xy, NOMINAL, np.random.default_rng(0), tare=False)
+        finger = _finger(biased, np.random.default_rng(0), "ideal")
+        pressed = rp.press(finger, xy, NOMINAL, tare=False)
         assert pressed.touched
         assert abs(np.linalg.norm(pressed.wrench[:3]) - 5.0) <= rp.PRESS.tolerance
         assert 3.1 < np.linalg.norm(biased.true_wrench[:3]) < 3.9
@@ -112,9 +126,62 @@ def test_sensor_choice_and_the_tare_before_each_press():
     config = ObjectConfig.scissors(holding_torque=HAND_HOLD_TORQUE)
     with ProbeScene(config, SkinConfig(), SensorConfig()) as scene:
         rng = np.random.default_rng(0)
-        scene.reset(0.0, [0.06, 0.105, 0.05], rp.DOWN, rng=rng)
-        pressed = rp.press(scene, np.array([0.06, 0.105]), NOMINAL, rng)
-        assert pressed.touched and pressed.tare is not None and pressed.tare.taken
+        scene.reset(0.0, [0.05, 0.105, 0.05], rp.DOWN, rng=rng)
+        finger = _finger(scene, rng)
+        pressed = rp.press(finger, np.array([0.06, 0.105]), NOMINAL)
+        assert pressed.touched and len(finger.pipeline.tares) == 1
         assert abs(np.linalg.norm(scene.true_wrench[:3]) - 5.0) <= rp.PRESS.tolerance + 0.1
+        # The tare was taken in free air over the press, after moving there from 10 mm
+        # away: the later the tare, the less the sensor drifts before the press is read.
+        tared = [sample for sample in finger.samples if sample.tare]
+        assert len(tared) == 1
+        np.testing.assert_allclose(tared[0].position[:2], [0.06, 0.105], atol=1e-9)
     with pytest.raises(SystemExit):
         rp.main(["--sensor", "perfect"])
+
+
+def test_table1_from_its_logs_equals_table1_direct(tmp_path):
+    logs = tmp_path / "logs"
+    argv = ["--trials", "1", "--schemes", "paper", "--no-plot", "--record-logs", str(logs)]
+    direct = rp.main([*argv, "--out", str(tmp_path / "direct")])
+    assert len(list(logs.glob("*.npz"))) == len(list(logs.glob("*.truth.json"))) == 2
+    replayed = rp.main(["--logs", str(logs), "--no-plot", "--out", str(tmp_path / "replayed")])
+    for name in ("table1.json", "table1.md"):
+        assert (tmp_path / "direct" / name).read_text() == (
+            tmp_path / "replayed" / name
+        ).read_text()
+    for key, cell in direct.items():
+        for a, b in zip(cell["trials"], replayed[key]["trials"]):
+            np.testing.assert_array_equal(a.points, b.points)
+            np.testing.assert_array_equal(a.proposed, b.proposed)
+            assert len(a.points) == len(a.presses)  # every measurement press accepted
+    with pytest.raises(ValueError, match="no trial logs"):
+        rp.from_logs(tmp_path / "direct")
+
+
+def test_a_skin_twice_as_stiff_as_configured_no_longer_stops_the_protocol(tmp_path):
+    # Issue 26: the press assumed 6000 N/m and never settled on this skin.
+    argv = ["--trials", "1", "--schemes", "paper", "--no-plot", "--out", str(tmp_path)]
+    results = rp.main([*argv, "--world", "skin_stiffness=2"])
+    for case in rp.CASES:
+        assert results[("paper", case)]["proposed_mm"][0] < 6.0
+
+
+def test_world_factors_change_the_world_not_the_sensing():
+    world = rp.parse_world("skin_stiffness=2, noise=4 drift=0.5")
+    assert world == {"skin_stiffness": 2.0, "noise": 4.0, "drift": 0.5}
+    with rp.make_scene("nominal", world=world) as scene:
+        header = rp.log_header(scene, "nominal")
+        configured = SensorConfig()
+        assert scene.skin_config.normal_stiffness == 2 * SkinConfig().normal_stiffness
+        assert scene.sensor_config.force_noise_std == 4 * configured.force_noise_std
+        assert scene.sensor_config.moment_drift == 0.5 * configured.moment_drift
+        assert header.skin_stiffness == SkinConfig().normal_stiffness
+        assert header.sensor_config() == configured
+    for text, match in [
+        ("stiffness=2", "--world takes"),
+        ("noise=0", "factor"),
+        ("noise=x", "factor"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            rp.parse_world(text)

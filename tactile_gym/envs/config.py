@@ -83,6 +83,9 @@ class HingeProbeConfig:
             ``"ideal"`` (white noise only; the v1 ids').
         tare_action: the v2 behaviour: tare at reset and on the action's seventh component
             (the class docstring); False gives the v1 ids' 6-D action and raw reading.
+        measure_gradient: the skills' presses step by the force gradient they measure
+            (``PressConfig.measure_gradient``, ``docs/design.md`` 5.2) rather than the one
+            they assume; how long a probe holds follows the gate (``gate.edge_std_target``).
         physics: the contact step, from ``tactile_gym.sim.scene.PHYSICS``: ``"v2"`` (the v1
             and v2 ids') or ``"v3"`` (the lean step, ``docs/design.md`` 3.6).
         skin, sensor, object, gate, task, scenario: nested overrides (above).
@@ -105,6 +108,7 @@ class HingeProbeConfig:
     randomize: bool = True
     sensor_model: str = "realistic"
     tare_action: bool = True
+    measure_gradient: bool = False
     physics: str = "v2"
     skin: dict = field(default_factory=dict)
     sensor: dict = field(default_factory=dict)
@@ -145,6 +149,7 @@ class HingeProbeConfig:
         check_bool("randomize", self.randomize)
         check_choice("sensor_model", self.sensor_model, SENSOR_MODELS)
         check_bool("tare_action", self.tare_action)
+        check_bool("measure_gradient", self.measure_gradient)
         check_choice("physics", self.physics, PHYSICS)
         # Build every nested config here, once (each is cached), so that a bad field fails at
         # construction.

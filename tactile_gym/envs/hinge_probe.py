@@ -204,8 +204,12 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
 
     * v3: the v3 contact step (``physics="v3"``, ``docs/design.md`` 3.6: one compiled call
       per control step, the joint integrated in it; trajectories held to bounds of v2's, not to
-      its bits) and the calibrated covariance (``estimator_covariance="calibrated"``, 6.9: the
-      ``estimate`` entry's stds are honest). The v2 and v1 ids stay registered unchanged.
+      its bits), the calibrated covariance (``estimator_covariance="calibrated"``, 6.9: the
+      ``estimate`` entry's stds are honest) and the adaptive press (5.2:
+      ``measure_gradient=True``, every skill steps by the force gradient it measures; the gate
+      measures a still press once the predicted edge error of its mean is 2 deg, within 12
+      readings, its steadiness judged on the force's trend). The v2 and v1 ids stay
+      registered unchanged.
     * 0.4 (no new version: observations, rewards and dynamics are unchanged): ``info`` is flat
       and numeric (``termination_<reason>`` flags replace the ``termination`` dict; NumPy
       scalars), the same keys at reset and step; ``env.spec.max_episode_steps`` is

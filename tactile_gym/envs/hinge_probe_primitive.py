@@ -107,7 +107,8 @@ class HingeProbePrimitiveEnv(EnvSpecOwnHorizon, gym.Env):
 
     ## Version History
 
-    * v3: drives the v3 6-D env (its contact step and calibrated covariance).
+    * v3: drives the v3 6-D env (its contact step, calibrated covariance and adaptive press:
+      a probe holds on the gate's hold rule and steps by the measured force gradient).
     * 0.4 (no new version: observations, rewards and dynamics are unchanged): an env of its
       own rather than a ``gym.Wrapper`` (``env.unwrapped`` is it; the 6-D env is
       ``control_env``); ``info["primitive"]`` (a string, named like the observation key) is

@@ -21,6 +21,7 @@ from tactile_gym.envs.skills import (
     Drag,
     Lift,
     Press,
+    PressSettings,
     PrimitiveExecutor,
     PrimitiveScales,
     ProbeFrame,
@@ -113,7 +114,7 @@ def joint_primitive_skills(
     action: np.ndarray,
     frame: ProbeFrame,
     max_translation: float,
-    dwell: int,
+    presses: PressSettings,
     scales: PrimitiveScales,
     tare: bool = False,
 ) -> tuple[str, list[Skill]]:
@@ -129,14 +130,14 @@ def joint_primitive_skills(
     (``TareSensor``).
     """
     if action[0] < 0.0:
-        return primitive_skills(action, frame, max_translation, dwell, scales, tare, LIFT_SLOPE)
+        return primitive_skills(action, frame, max_translation, presses, scales, tare, LIFT_SLOPE)
     lift = Lift(max_translation, frame)
     skills: list[Skill] = [lift]
     if tare:
         skills.append(TareSensor(max_translation, frame, lift))
     # The press before the drag does not update the frame (it presses on a copy): the frame
     # follows the probes alone, whose last readings the policy observes.
-    skills.append(Press(max_translation, dataclasses.replace(frame), force=5.5, dwell=0))
+    skills.append(Press(max_translation, dataclasses.replace(frame), presses.turn(max_translation)))
     distance = scales.turn_distance
     skills.append(Slide(max_translation, frame, action[1] * distance, action[2] * distance))
     return "drag", skills
@@ -152,7 +153,7 @@ class JointPrimitiveExecutor(PrimitiveExecutor):
 
     def skills_for(self, action: np.ndarray) -> tuple[str, list[Skill]]:
         return joint_primitive_skills(
-            action, self.frame, self.max_translation, self.dwell, self.scales, self.tare
+            action, self.frame, self.max_translation, self.presses, self.scales, self.tare
         )
 
 

@@ -15,8 +15,9 @@ world +z: the fingertip starts above the face that looks up.
 The physics each skill relies on (``docs/design.md`` 4.1, 4.2, 7.6):
 
 * :class:`Press` moves only along the face normal once touching, so the skin is not dragged and
-  the press is *pure*; it holds still for the gate's dwell, so the readings are averaged into
-  one measurement.
+  the press is *pure*; it holds still until the gate's hold rule is met (its dwell, or the
+  predicted edge error of the mean reaching the gate's target: ``HoldRule``), and one step
+  more, so the readings are averaged into one measurement.
 * :class:`Drag` turns the link: pressing on the face near the edge and moving across the edge
   toward the face's interior, the sticking skin carries the link along.
 * :class:`Lift` ends a touch, so that the next press starts with an unloaded skin.
@@ -42,12 +43,19 @@ from tactile_gym.envs.observation import (
     ProgressObs,
     WrenchObs,
 )
-from tactile_gym.sensing import RELEASE_FORCE, PressConfig, PressController
+from tactile_gym.sensing import (
+    RELEASE_FORCE,
+    HoldRule,
+    PressConfig,
+    PressController,
+    TouchSensor,
+)
 from tactile_gym.spatial import quaternion_to_matrix
 from tactile_gym.vec3 import cross, norm
 
 __all__ = [
     "ACTION_SIZE",
+    "HOLD_MARGIN",
     "PRIMITIVES",
     "PRIMITIVE_KIND",
     "Drag",
@@ -56,6 +64,7 @@ __all__ = [
     "PrimitiveExecutor",
     "PrimitiveScales",
     "Press",
+    "PressSettings",
     "TareSensor",
     "ProbeFrame",
     "Skill",
@@ -72,6 +81,9 @@ PRIMITIVE_KIND = {"probe": -1, "turn": 1, "drag": 1}
 UP = np.array([0.0, 0.0, 1.0])
 #: A skill's action: the 6-D motion and the tare request (``HingeProbeEnv``'s Action Space).
 ACTION_SIZE = 7
+#: Still steps a probe holds beyond its hold rule: the skill reads the observation (float32)
+#: and the gate the reading itself, so the gate's rule may be met one reading later.
+HOLD_MARGIN = 1
 
 
 @functools.lru_cache(maxsize=16)
@@ -88,6 +100,7 @@ class TouchReading:
     """The parts of one observation the skills use (world frame)."""
 
     force: np.ndarray  # (3,) force on the fingertip, N
+    wrench: np.ndarray  # (6,) force (N) and moment (N m), sensor frame
     position: np.ndarray  # (3,) sensor origin, m
     rotation: np.ndarray  # (3, 3) sensor to world
     touching: bool
@@ -102,8 +115,10 @@ class TouchReading:
         contact = ContactObs.read(obs)
         rotation = _rotation_of(pose.quaternion.tobytes())
         edge = contact.edge
+        wrench = WrenchObs.read(obs)
         return cls(
-            force=rotation @ WrenchObs.read(obs).force,
+            force=rotation @ wrench.force,
+            wrench=np.r_[wrench.force, wrench.moment],
             position=pose.position,
             rotation=rotation,
             touching=bool(contact.touching > 0.5),
@@ -192,41 +207,53 @@ class Skill:
 
 
 class Press(Skill):
-    """Press along the face normal to ``force``, then hold still for ``dwell`` steps.
+    """Press along the face normal to the force of ``config``, then hold still until its hold
+    rule is met, and ``hold_margin`` steps more.
 
     The press is ``tactile_gym.sensing.PressController``'s, one env action per reading;
-    moving only along the normal keeps it pure (module docstring). Ends after the dwell, or
-    failed when no contact comes within ``reach`` of travel.
+    moving only along the normal keeps it pure (module docstring). It reads the sensor-frame
+    wrench of the observation (its hold rule, with a target, predicts the edge error of their
+    mean with ``sensor``, the sensing the env is configured with). Ends after the hold, or
+    failed when no contact comes within the press's ``reach`` of travel.
+
+    Args:
+        max_translation: the env's translation for an action of 1, m (the press's
+            ``max_step``).
+        frame: the shared probing frame.
+        config: the press.
+        sensor: the touch sensing (needed with an ``edge_std_target``).
+        hold_margin: still steps after the hold rule is met (``HOLD_MARGIN``).
     """
 
     def __init__(
         self,
         max_translation: float,
         frame: ProbeFrame,
-        force: float,
-        dwell: int,
-        reach: float = PressConfig.reach,
-        tolerance: float = PressConfig.tolerance,
+        config: PressConfig,
+        sensor: TouchSensor | None = None,
+        hold_margin: int = 0,
     ) -> None:
-        super().__init__(max_translation, frame, budget=int(reach / max_translation) + 30)
-        config = PressConfig(
-            target_force=force,
-            tolerance=tolerance,
-            max_step=max_translation,
-            dwell=dwell,
-            reach=reach,
-        )
-        self.press = PressController(config)
+        hold = config.hold_rule
+        steps = int(config.reach / max_translation) + 30 + hold.most - hold.least
+        super().__init__(max_translation, frame, budget=steps)
+        self.press = PressController(config, sensor)
+        self.hold_margin = int(hold_margin)
+        self._still: int | None = None  # margin steps held after the rule was met
 
     def _move(self, reading: TouchReading) -> np.ndarray | None:
-        step = self.press.step(reading.force)
-        if step is None:
-            if self.press.phase == "done":
-                self.frame.update(reading)
-            else:
+        if self._still is None:
+            step = self.press.step(reading.wrench)
+            if step is not None:
+                return -self.frame.normal * step
+            if self.press.phase != "done":
                 self.failed = True
-            return None
-        return -self.frame.normal * step
+                return None
+            self._still = 0
+        if self._still < self.hold_margin:
+            self._still += 1
+            return np.zeros(3)
+        self.frame.update(reading)
+        return None
 
 
 class Lift(Skill):
@@ -352,11 +379,48 @@ class PrimitiveScales:
     turn_distance: float = 0.02
 
 
+@dataclass(frozen=True, eq=False)
+class PressSettings:
+    """How the skills press (``tactile_gym.sensing.probing``): the probe's hold and the force
+    gradient, the same for every press of an env.
+
+    Attributes:
+        hold: the probe's hold rule, the gate's (``GateConfig.hold_rule``); the probe holds
+            ``HOLD_MARGIN`` steps more.
+        sensor: the touch sensing the env is configured with, which predicts the edge error
+            of a hold's mean (needed when ``hold`` has a target).
+        measure_gradient: step by the force gradient measured while pressing
+            (``PressConfig.measure_gradient``) rather than the assumed one.
+    """
+
+    hold: HoldRule
+    sensor: TouchSensor | None = None
+    measure_gradient: bool = False
+
+    def probe(self, max_translation: float) -> PressConfig:
+        """A probe's press: to 5 N, then hold."""
+        hold = self.hold
+        return PressConfig(
+            target_force=5.0,
+            max_step=max_translation,
+            measure_gradient=self.measure_gradient,
+            dwell=hold.least,
+            edge_std_target=hold.target,
+            dwell_budget=hold.budget,
+        )
+
+    def turn(self, max_translation: float) -> PressConfig:
+        """A turn's press: to 5.5 N, no hold (the drag follows)."""
+        return PressConfig(
+            target_force=5.5, max_step=max_translation, measure_gradient=self.measure_gradient
+        )
+
+
 def primitive_skills(
     action: np.ndarray,
     frame: ProbeFrame,
     max_translation: float,
-    dwell: int,
+    presses: PressSettings,
     scales: PrimitiveScales,
     tare: bool = False,
     lift_slope: float = 0.0,
@@ -364,14 +428,15 @@ def primitive_skills(
     """The primitive a normalised action (3,) asks for, as the skills that carry it out.
 
     ``action[0] < 0``: ``probe`` -- lift, move by ``action[2]`` along and ``action[1]`` across
-    the last edge (positive beyond it), press along the face normal to 5 N and hold for
-    ``dwell`` steps. ``action[0] >= 0``: ``turn`` -- lift, move by ``action[2]`` along the
-    edge, press to 5.5 N and drag ``action[1]`` across the edge (positive toward the face's
-    interior). Before the first edge is known there are no directions to move in: ``probe``
-    presses where it is, ``turn`` only presses. With ``tare`` both tare the sensor right
-    after the lift, before moving on (:class:`TareSensor`). The lift clears the skin by 1 mm
-    plus ``lift_slope`` times the move's length, so that a long move clears a face whose
-    normal the frame has a little wrong.
+    the last edge (positive beyond it), press along the face normal to 5 N and hold until
+    ``presses.hold`` is met and ``HOLD_MARGIN`` steps more. ``action[0] >= 0``: ``turn`` --
+    lift, move by ``action[2]`` along the edge, press to 5.5 N and drag ``action[1]`` across
+    the edge (positive toward the face's interior). Before the first edge is known there are
+    no directions to move in: ``probe`` presses where it is, ``turn`` only presses. With
+    ``tare`` both tare the sensor right after the lift, before moving on
+    (:class:`TareSensor`). The lift clears the skin by 1 mm plus ``lift_slope`` times the
+    move's length, so that a long move clears a face whose normal the frame has a little
+    wrong.
     """
     name = PRIMITIVES[int(action[0] >= 0.0)]
     offset = np.zeros(3)
@@ -386,9 +451,10 @@ def primitive_skills(
     if np.linalg.norm(offset) > 0.0:
         skills.append(Move(max_translation, frame, offset))
     if name == "probe":
-        skills.append(Press(max_translation, frame, force=5.0, dwell=dwell))
+        probe = presses.probe(max_translation)
+        skills.append(Press(max_translation, frame, probe, presses.sensor, HOLD_MARGIN))
     else:
-        skills.append(Press(max_translation, frame, force=5.5, dwell=0))
+        skills.append(Press(max_translation, frame, presses.turn(max_translation)))
         if frame.edge is not None:
             skills.append(Drag(max_translation, frame, action[1] * scales.turn_distance))
     return name, skills
@@ -404,7 +470,7 @@ class PrimitiveExecutor:
 
     Args:
         max_translation: the env's translation for an action of 1, m.
-        dwell: still steps of a probe (the gate's dwell plus one).
+        presses: how the skills press (the probe's hold: the gate's rule).
         max_steps: the episode's control steps, to express a primitive's cost.
         scales: what a primitive action of 1 means.
         tare: the env has a tare action: tare before each press, act with 7-D actions.
@@ -413,13 +479,13 @@ class PrimitiveExecutor:
     def __init__(
         self,
         max_translation: float,
-        dwell: int,
+        presses: PressSettings,
         max_steps: int,
         scales: PrimitiveScales = PrimitiveScales(),  # noqa: B008 - frozen dataclass
         tare: bool = False,
     ) -> None:
         self.max_translation = float(max_translation)
-        self.dwell = int(dwell)
+        self.presses = presses
         self.max_steps = int(max_steps)
         self.scales = scales
         self.tare = bool(tare)
@@ -433,16 +499,15 @@ class PrimitiveExecutor:
         scales: PrimitiveScales = PrimitiveScales(),  # noqa: B008 - frozen dataclass
     ) -> PrimitiveExecutor:
         """The executor of a ``HingeProbeEnv`` (``env.unwrapped``): its translation scale and
-        budget, probes held one step beyond the gate's dwell, and a tare before each press
-        where the env has a tare action."""
+        budget, probes held by the gate's hold rule and ``HOLD_MARGIN`` steps more (judged
+        with the env's configured sensing), the skills' force gradient measured where the
+        env says (``measure_gradient``), and a tare before each press where the env has a tare
+        action."""
         config = env.config
-        return cls(
-            config.max_translation,
-            env.gate.config.dwell + 1,
-            config.max_steps,
-            scales,
-            config.tare_action,
+        presses = PressSettings(
+            env.gate.config.hold_rule, env.pipeline.sensor, config.measure_gradient
         )
+        return cls(config.max_translation, presses, config.max_steps, scales, config.tare_action)
 
     def reset(self) -> None:
         """Forget the probing so far (call at every episode start)."""
@@ -462,7 +527,7 @@ class PrimitiveExecutor:
         """The primitive a normalised action (3,) asks for, as its skills
         (``primitive_skills``)."""
         return primitive_skills(
-            action, self.frame, self.max_translation, self.dwell, self.scales, self.tare
+            action, self.frame, self.max_translation, self.presses, self.scales, self.tare
         )
 
     def act(self, obs: dict) -> np.ndarray | None:

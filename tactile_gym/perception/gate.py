@@ -6,9 +6,13 @@ valid (``docs/design.md`` 7.2, which gives the figures behind every threshold). 
 measurement is a static, pure press on the edge of a face. Over the readings since the skin
 last was free (a reading below ``TOUCH_FORCE``), a press is accepted when:
 
-1. the fingertip held still for ``dwell`` readings, whose force stayed steady
-   (``max_force_spread``); they are averaged and read as one wrench with ``dwell`` times
-   less noise variance (``TouchSensor.sense``);
+1. the fingertip held still for ``dwell`` readings (with ``edge_std_target``: until the
+   predicted edge error of their mean reaches it, or ``dwell_budget`` readings; the
+   ``HoldRule`` of ``tactile_gym.sensing.probing`` that the press and the skills stop on
+   too), whose force stayed steady (``max_force_spread``: its peak-to-peak spread, or with
+   ``steady_rule="trend"`` its change along a straight line fitted over the window, which
+   averages a noisy sensor's scatter out, :func:`force_change`); they are averaged and read
+   as one wrench with as many times less noise variance (``TouchSensor.sense``);
 2. the averaged force lies in ``force_band``;
 3. its edge is observable and the force is tilted by at least ``min_tilt``;
 4. the tilt is the truncated patch's, not friction's (:func:`friction_free`);
@@ -50,19 +54,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.estimation import AxisEstimate
-from tactile_gym.sensing import TOUCH_FORCE, Touch, TouchSensor, indentation_depth
+from tactile_gym.sensing import TOUCH_FORCE, HoldRule, Touch, TouchSensor, indentation_depth
 from tactile_gym.spatial import matrix_to_rotvec
-from tactile_gym.validation import check_bool, check_int, check_number, check_range
+from tactile_gym.validation import (
+    check_bool,
+    check_choice,
+    check_int,
+    check_number,
+    check_range,
+)
 from tactile_gym.vec3 import norm
 
 __all__ = [
     "GATE_RULES",
+    "STEADY_RULES",
     "GateConfig",
     "Measurement",
     "MeasurementGate",
     "bias_within_budget",
     "drag_bias",
     "flat_press_depth",
+    "force_change",
     "friction_free",
     "line_distance",
     "link_held",
@@ -72,6 +84,10 @@ __all__ = [
 ]
 
 _DEG = np.pi / 180.0
+
+#: How the steady rule measures the change of the force over a still window
+#: (``GateConfig.steady_rule``).
+STEADY_RULES = ("spread", "trend")
 
 #: The names of the gate's rules, as a refusal reports them (``MeasurementGate.last_rule``):
 #: the press rules of the module docstring in their order, then the same-edge test's two.
@@ -99,10 +115,19 @@ class GateConfig:
     Attributes:
         force_band: accepted (min, max) force of a measurement, N; the min at least
             ``TOUCH_FORCE``.
-        dwell: readings averaged for one press measurement (the fingertip held still).
+        dwell: readings averaged for one press measurement (the fingertip held still); with
+            ``edge_std_target``, the least readings averaged.
+        edge_std_target: measure a still press once the predicted edge error of its
+            window's mean reaches this, rad (``HoldRule``, ``docs/design.md`` 5.2); None: after
+            exactly ``dwell`` readings.
+        dwell_budget: with ``edge_std_target``, measure a still press after this many readings
+            whatever its predicted error.
         still_translation: largest fingertip motion in one step that counts as still, m.
         still_rotation: largest fingertip rotation in one step that counts as still, rad.
         max_force_spread: largest change of |f| over the averaged readings, N.
+        steady_rule: how that change is measured: ``"spread"``, the readings' peak-to-peak
+            spread (it grows with the noise and the window's length); ``"trend"``, the change
+            along a straight line fitted to them (:func:`force_change`).
         min_press_depth: least fingertip travel since the skin was free, m.
         min_tilt: least tilt of the force from the skin normal, rad.
         friction_share: largest ratio of the path-to-force angle to the force's tilt.
@@ -119,7 +144,9 @@ class GateConfig:
             (the variation of the contact point's depth inside the face, ``docs/design.md``
             4.5).
         min_hinge_distance: least distance of a kept contact from the estimated axis, m (where
-            the links overlap around the pin, ``docs/design.md`` 7.2).
+            the links overlap around the pin, ``docs/design.md`` 7.2), plus the estimate's
+            position std; 0: no contact is refused for its distance from the axis (a protocol
+            whose contacts near the hinge, as the paper's sliding ones do).
         point_std: 1-sigma error of a measured contact point handed to the estimator, m
             (``docs/design.md`` 4.5).
         edge_std_floor: least edge error handed to the estimator, rad: the model error (node
@@ -128,9 +155,12 @@ class GateConfig:
 
     force_band: tuple[float, float] = (4.0, 7.5)
     dwell: int = 6
+    edge_std_target: float | None = None
+    dwell_budget: int = 60
     still_translation: float = 2e-5
     still_rotation: float = 2e-4
     max_force_spread: float = 0.15
+    steady_rule: str = "spread"
     min_press_depth: float = 5e-4
     min_tilt: float = 6.0 * _DEG
     friction_share: float = 0.5
@@ -153,9 +183,16 @@ class GateConfig:
                 f" {self.force_band[0]!r}"
             )
         check_int("gate.dwell", self.dwell, 1, 100)
+        check_int("gate.dwell_budget", self.dwell_budget, 1, 1000)
+        if self.edge_std_target is not None:
+            check_number(
+                "gate.edge_std_target", self.edge_std_target, 0.0, np.pi / 2, low_open=True
+            )
+            check_int("gate.dwell_budget", self.dwell_budget, self.dwell, 1000)
         check_number("gate.still_translation", self.still_translation, 0.0, 1e-3, low_open=True)
         check_number("gate.still_rotation", self.still_rotation, 0.0, 0.1, low_open=True)
         check_number("gate.max_force_spread", self.max_force_spread, 0.0, 5.0, low_open=True)
+        check_choice("gate.steady_rule", self.steady_rule, STEADY_RULES)
         check_number("gate.min_press_depth", self.min_press_depth, 0.0, 0.005)
         check_number("gate.min_tilt", self.min_tilt, 0.0, np.pi / 4)
         check_number("gate.friction_share", self.friction_share, 0.0, 1.0, low_open=True)
@@ -169,6 +206,12 @@ class GateConfig:
         check_number("gate.min_hinge_distance", self.min_hinge_distance, 0.0, 0.1)
         check_number("gate.point_std", self.point_std, 0.0, 0.01, low_open=True)
         check_number("gate.edge_std_floor", self.edge_std_floor, 0.0, np.pi / 4)
+
+    @property
+    def hold_rule(self) -> HoldRule:
+        """When a still press has averaged enough (``dwell``, ``edge_std_target``,
+        ``dwell_budget``)."""
+        return HoldRule(self.dwell, self.edge_std_target, self.dwell_budget)
 
 
 # --- the rules, as functions of a GateConfig (module docstring; docs/design.md 7.2) ---------
@@ -210,6 +253,23 @@ def bias_within_budget(bias, edge_std, config: GateConfig):
     """Whether a drag bias plus twice the predicted edge error, rad, fits ``bias_budget``
     (rule 5); floats or arrays."""
     return bias + 2.0 * edge_std <= config.bias_budget
+
+
+def force_change(magnitudes) -> float:
+    """The change of |f| over a still window along a straight line fitted to it by least
+    squares, N: the slope times the window's span. A steady force with noise sigma reads
+    about sigma sqrt(12 (n - 1) / (n (n + 1))), less the longer the window (the peak-to-peak
+    spread grows instead); a link that moves under the press changes it steadily.
+
+    Args:
+        magnitudes: (n,) |f| of the window's readings, in order, N.
+    """
+    f = np.asarray(magnitudes, dtype=float)
+    n = len(f)
+    if n < 2:
+        return 0.0
+    index = np.arange(n) - 0.5 * (n - 1)
+    return abs(float(index @ f) / float(index @ index)) * (n - 1)
 
 
 def patch_displacement(point, before, after) -> np.ndarray:
@@ -315,6 +375,7 @@ class MeasurementGate:
     def __init__(self, config: GateConfig, sensor: TouchSensor) -> None:
         self.config = config
         self.sensor = sensor
+        self._hold = config.hold_rule
         #: Expected distance of the probed edge from the axis (mean, std), m, or None.
         self.edge_distance: tuple[float, float] | None = None
         self._radius = sensor.geometry.outer_radius
@@ -383,7 +444,7 @@ class MeasurementGate:
         out = []
         if still and in_band and not self._pressed:
             self._window.append(np.asarray(wrench, dtype=float))
-            if len(self._window) >= cfg.dwell:
+            if self._hold.enough(self.sensor, self._window):
                 self._pressed = True
                 measurement = self._press(rotation, position)
                 if measurement is not None:
@@ -409,7 +470,11 @@ class MeasurementGate:
     def _press(self, rotation: np.ndarray, position: np.ndarray) -> Measurement | None:
         cfg = self.config
         window = np.asarray(self._window)
-        spread = float(np.ptp(np.linalg.norm(window[:, :3], axis=1)))
+        magnitudes = np.linalg.norm(window[:, :3], axis=1)
+        if cfg.steady_rule == "spread":
+            spread = float(np.ptp(magnitudes))
+        else:
+            spread = force_change(magnitudes)
         if spread > cfg.max_force_spread:
             return self._reject(
                 "steady", f"force changed by {spread:.2f} N while still (the link moved)"
@@ -487,7 +552,8 @@ class MeasurementGate:
         if estimate is None:
             return True
         radius = estimate.distance_to(m.point)
-        if radius < self.config.min_hinge_distance + estimate.position_std:
+        least = self.config.min_hinge_distance
+        if least > 0.0 and radius < least + estimate.position_std:
             self._reject(
                 "hinge_distance",
                 f"too near the hinge ({radius * 1e3:.1f} mm from the estimated axis): the links"

@@ -10,10 +10,14 @@ from tactile_gym.sensing.edge import EDGE_STD_UNOBSERVABLE, edge_from_trace
 from tactile_gym.sensing.geometry import FingertipGeometry, SurfaceSamples
 from tactile_gym.sensing.indentation import CONTACT_SHAPES, indentation_depth
 from tactile_gym.sensing.probing import (
+    GradientEstimate,
+    HoldRule,
     PressConfig,
     PressController,
     Touch,
     TouchSensor,
+    effective_readings,
+    predicted_edge_std,
     run_press,
 )
 from tactile_gym.sensing.sensor import (
@@ -38,6 +42,8 @@ __all__ = [
     "TOUCH_FORCE",
     "ContactEstimate",
     "FingertipGeometry",
+    "GradientEstimate",
+    "HoldRule",
     "PressConfig",
     "PressController",
     "SensorConfig",
@@ -47,9 +53,11 @@ __all__ = [
     "Touch",
     "TouchSensor",
     "edge_from_trace",
+    "effective_readings",
     "estimate_contact",
     "fingertip_mass_properties",
     "gravity_wrench",
     "indentation_depth",
+    "predicted_edge_std",
     "run_press",
 ]
