@@ -16,7 +16,9 @@ One episode, in primitives of the ``JointProbePrimitive`` ids (a ``probe`` press
    one edge cannot tell a slide along it from rigid, nor a slide's direction in the plane
    (``docs/design.md`` 6.10): **find B**, an edge square to A at one end of A (probes
    stepping along A, ``search_step`` apart, 10 mm in from A, until one lands at B), then
-   cycle: probe A, probe B, probe A, push.
+   cycle: probe A, probe B, probe A, push. Once a link that came along with a push stops
+   coming along (its edge did not move with the finger: the slide is at its stop), the
+   pushes end and the cycle only probes.
 
 The policy reads only observations (the contact, the last measurement, the progress and the
 joint-type estimate); it never reads the simulator. It mirrors the primitives' probing frame
@@ -353,6 +355,10 @@ class JointProber:
         self.phase = "cycle"
         # Whether the last push moved the link: A's line after the first push against before.
         carried = self._shift(first.last, a.last) > cfg.moved
+        # A link that came along with a push and then stops coming along is at its joint's
+        # stop: pushing on drags the finger over the face until its shell touches, so from
+        # then on the edges are only probed (what the probes measure, never the truth).
+        came_along, at_stop = carried, False
         while True:
             if at != "A" and not carried:
                 # A link that did not come along: push across A, not along B, whose far end a
@@ -363,7 +369,8 @@ class JointProber:
                     edges["A"] = [out.last.edge.copy(), outward, out.centre.copy()]
                     at = "A"
             dragged = at
-            yield from self._drag_toward(cfg.push_distance * push)
+            if not at_stop:
+                yield from self._drag_toward(cfg.push_distance * push)
             if carried:
                 for entry in edges.values():
                     if entry is not None:
@@ -384,6 +391,8 @@ class JointProber:
                     if name == dragged and before is not None:
                         carried = self._shift(before, out.last) > cfg.moved
                     self._last_of[name] = out.last
+            at_stop = at_stop or (came_along and not carried)
+            came_along = came_along or carried
 
     @staticmethod
     def _shift(before, after) -> float:

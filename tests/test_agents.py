@@ -401,6 +401,28 @@ def test_a_primitive_policy_drives_the_6d_id(tmp_path):
     env.close()
 
 
+def test_the_commands_take_the_joint_ids(tmp_path):
+    """agents.train and agents.evaluate accept the joint ids (which joint is it): a tiny run,
+    then the model, random and the joint baseline evaluated on it."""
+    pytest.importorskip("stable_baselines3")
+    assert set(tactile_gym.JOINT_ENV_IDS) <= set(cli.KNOWN_ENV_IDS)
+    env_id = "tactile_gym/JointProbePrimitive-v0"
+    run_dir = train.main(
+        ["--algo", "ppo", "--env", env_id, "--n-timesteps", "32", "--n-envs", "1",
+         "--log-folder", str(tmp_path), "--eval-freq", "0", "--checkpoint-freq", "0",
+         "--no-progress-bar", "--config", str(_tiny_config(tmp_path, "ppo")),
+         "--env-kwargs", "max_primitives:8"]
+    )  # fmt: skip
+    assert yaml.safe_load((run_dir / "config.yml").read_text())["env_id"] == env_id
+    model = str(run_dir / "final_model.zip")
+    summaries = evaluate.main(
+        ["--env", env_id, "--policies", "random", "scripted", model, "--episodes", "1",
+         "--out", str(tmp_path / "evaluation"), "--env-kwargs", "max_primitives:8", "--no-plot"]
+    )  # fmt: skip
+    assert len(summaries) == 3
+    assert all(summary["episodes"] == 1 for summary in summaries.values())
+
+
 def test_an_interrupted_run_resumes_from_its_latest_checkpoint(tmp_path, capsys):
     """What a sweep does with a job whose attempt was cut off: the run continues from its
     checkpoint with its normalisation statistics and its evaluation log, to the full budget."""

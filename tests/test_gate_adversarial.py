@@ -191,9 +191,15 @@ class HoldStill(PressCycle):
 
     def aim(self):
         u, rng = self.u, self.rng
-        edges = _long_edges(u)
-        k = int(rng.integers(4))
+        # The hinge ids: both links' long edges. The joint ids: every edge of both links'
+        # top faces (their links are plates, rails, drawers and panels, whose long edges the
+        # hinge's frame does not give: aimed so, the drawers' presses went into the air).
+        edges = _top_edges(u) if _joint(u) else _long_edges(u)
+        k = int(rng.integers(len(edges)))
         start, direction, length = edges[k]
+        self.normal = (
+            _top_normal(u, k) if _joint(u) else u.scene.object_config.hinge_rotation()[:, 2]
+        )
         # Across the face: from this long edge toward the link's other one.
         across_face = edges[k ^ 1][0] - start
         across_face -= (across_face @ direction) * direction
@@ -247,14 +253,15 @@ class HoldStill(PressCycle):
 
 
 class OnEdge(HoldStill):
-    """Honest presses on a long edge (within 1 mm of it) to 4.5-7 N along the top face's
-    normal (straight down on a level face), held still."""
+    """Honest presses on a long edge (on the joint ids, any edge of a top face) within 1 mm
+    of it, to 4.5-7 N along the top face's normal (straight down on a level face), held
+    still."""
 
     on_edge = True
 
     def prepare(self):
         self.force_target = self.rng.uniform(4.5, 7.0)
-        self.d = -self.u.scene.object_config.hinge_rotation()[:, 2]
+        self.d = -self.normal
 
 
 class ShearHold(HoldStill):
@@ -349,12 +356,30 @@ def _long_edges(u):
     return segments
 
 
+def _joint(u) -> bool:
+    """Whether ``u`` (an env's ``unwrapped``) is a joint id's env (a primitive env's too)."""
+    return isinstance(getattr(u, "control_env", u), JointProbeEnv)
+
+
+def _top_boxes(u):
+    """Both links' boxes (the free link's first)."""
+    return (u.scene.object.free_box, u.scene.object.fixed_box)
+
+
+def _top_normal(u, k: int) -> np.ndarray:
+    """The unit normal of the top face that ``_top_edges(u)[k]`` bounds, world."""
+    r = _top_boxes(u)[k // 4].rotation
+    up = int(np.argmax(np.abs(r[2])))
+    return np.sign(r[2, up]) * r[:, up]
+
+
 def _top_edges(u):
     """Every edge of both links' faces that look up, as segments (start, unit direction,
-    length), world: on the joint ids each line of the link is a valid measurement (the
-    pipeline labels it, docs/design.md 7.12); ends are edges, corners are not."""
+    length), world, four per box (``_top_boxes``), opposite edges of a face paired (k and
+    k ^ 1): on the joint ids each line of the link is a valid measurement (the pipeline
+    labels it, docs/design.md 7.12); ends are edges, corners are not."""
     segments = []
-    for box in (u.scene.object.free_box, u.scene.object.fixed_box):
+    for box in _top_boxes(u):
         r, c, h = box.rotation, box.center, box.half_extents
         up = int(np.argmax(np.abs(r[2])))  # the box axis nearest world z
         top = c + np.sign(r[2, up]) * h[up] * r[:, up]
@@ -377,7 +402,7 @@ def _errors_against_both_long_edges(u, m):
     edges are segments: the fixed link's edge line extended over the free link is no edge.
     """
     best = (np.inf, np.inf, np.inf)
-    joint = isinstance(getattr(u, "control_env", u), JointProbeEnv)
+    joint = _joint(u)
     for start, d, length in _top_edges(u) if joint else _long_edges(u):
         t = float(np.clip((m.point - start) @ d, 0.0, length))
         distance = float(np.linalg.norm(m.point - (start + t * d)))
@@ -398,9 +423,12 @@ def _padded(action, space) -> np.ndarray:
     return np.r_[action, np.zeros(space.shape[0] - action.shape[0], np.float32)]
 
 
-def _judge(env, low, episodes: int, seed: int, policy) -> tuple[np.ndarray, np.ndarray]:
+def _judge(
+    env, low, episodes: int, seed: int, policy, on_accept=None
+) -> tuple[np.ndarray, np.ndarray]:
     """Run ``policy(k)`` (a function of the observation) for episodes ``k``; return the edge
-    errors (deg) and line distances (m) of every measurement ``low`` (the 6-D env) accepts."""
+    errors (deg) and line distances (m) of every measurement ``low`` (the 6-D env) accepts
+    (each also handed to ``on_accept(low, measurement, angle, distance)`` if given)."""
     angles, distances = [], []
     for k in range(episodes):
         obs, _ = env.reset(seed=seed + k)
@@ -413,6 +441,8 @@ def _judge(env, low, episodes: int, seed: int, policy) -> tuple[np.ndarray, np.n
             # Judge each new measurement against the link as it is when accepted.
             for m in low.measurements[before:]:
                 angle, distance = _errors_against_both_long_edges(low, m)
+                if on_accept is not None:
+                    on_accept(low, m, angle, distance)
                 angles.append(angle)
                 distances.append(distance)
     env.close()
@@ -437,17 +467,20 @@ def attack_primitives(env_id: str, episodes: int, seed: int = 0):
 
 
 def hold_still_attack(
-    env_id: str, episodes: int, steps: int, seed: int = 0, kinds=HOLD_STILL, **make
-):
+    env_id: str, episodes: int, steps: int, seed: int = 0, kinds=HOLD_STILL, on_accept=None,
+    **make,
+):  # fmt: skip
     """The hold-still adversaries (``kinds``) in turn on a 6-D id (``make``: more keywords
-    of ``gym.make``, such as ``gate``)."""
+    of ``gym.make``, such as ``gate``; ``on_accept`` as ``_judge``'s)."""
     env = gym.make(env_id, max_steps=steps, **make)
     rng = np.random.default_rng(seed)
     return _judge(env, env.unwrapped, episodes, seed,
-                  lambda k: kinds[k % len(kinds)](env, rng).act)  # fmt: skip
+                  lambda k: kinds[k % len(kinds)](env, rng).act, on_accept)  # fmt: skip
 
 
-def honest_edge_presses(env_id: str, episodes: int, steps: int, seed: int = 0, **make):
+def honest_edge_presses(
+    env_id: str, episodes: int, steps: int, seed: int = 0, on_accept=None, **make
+):
     """Honest presses on a long edge (``OnEdge``): (presses held, accepted, edge errors
     (deg) and line distances (m) of the accepted)."""
     env = gym.make(env_id, max_steps=steps, **make)
@@ -458,7 +491,7 @@ def honest_edge_presses(env_id: str, episodes: int, steps: int, seed: int = 0, *
         policies.append(OnEdge(env, rng))
         return policies[-1].act
 
-    angles, distances = _judge(env, env.unwrapped, episodes, seed, policy)
+    angles, distances = _judge(env, env.unwrapped, episodes, seed, policy, on_accept)
     return sum(p.presses for p in policies), len(angles), angles, distances
 
 
@@ -548,5 +581,55 @@ def by_kind(steps: int = 400, seed: int = 100) -> None:
                 )
 
 
+def _where_on_a_face(u, point) -> tuple[str, float, float]:
+    """The link whose top face a contact lies on (within 3.5 mm of it, else "off"), the
+    face's width (its smaller side) and the contact's distance from its nearest corner, m."""
+    for name, box in zip(("free", "fixed"), _top_boxes(u), strict=True):
+        local = box.rotation.T @ (point - box.center)
+        up = int(np.argmax(np.abs(box.rotation[2])))
+        sides = [i for i in range(3) if i != up]
+        if np.all(np.abs(local) <= box.half_extents + 0.0035):
+            half, at = box.half_extents[sides], np.abs(local[sides])
+            return name, float(2.0 * half.min()), float(np.linalg.norm(half - at))
+    return "off", np.nan, np.nan
+
+
+def where(env_id: str, steps: int = 400) -> None:
+    """Print where the presses that the slow tests' hold-still attack (seed 100) and honest
+    edge presses (seed 200) get in lie: per family and link (the top face the contact lies
+    on), how many get in and how many of them are more than 5 deg off, and each of those with
+    its face's width and its distance from the face's nearest corner (truth, for the
+    diagnosis only: ``docs/design.md`` 7.12)."""
+    for name, run, episodes, seed in (
+        ("hold-still", hold_still_attack, 60, 100),
+        ("honest edge presses", honest_edge_presses, 30, 200),
+    ):
+        counts, off = {}, []
+
+        def on_accept(u, m, angle, distance, counts=counts, off=off):
+            link, width, corner = _where_on_a_face(u, m.point)
+            key = (u.scene.object_config.family, link)
+            counts[key] = counts.get(key, 0) + 1
+            if angle > P95_EDGE_DEG:
+                off.append((key, angle, distance, width, corner))
+
+        run(env_id, episodes, steps, seed, on_accept=on_accept)
+        print(f"{env_id} {name} ({episodes} episodes): {sum(counts.values())} accepted")
+        for key, n in sorted(counts.items()):
+            bad = [o for o in off if o[0] == key]
+            print(f"  {key[0]} {key[1]} link: {n} accepted, {len(bad)} > 5 deg")
+            for _, angle, distance, width, corner in bad:
+                print(
+                    f"    {angle:5.1f} deg, {1e3 * distance:.1f} mm from the line; face"
+                    f" {1e3 * width:.0f} mm wide, contact {1e3 * corner:.1f} mm from a corner"
+                )
+
+
 if __name__ == "__main__":
-    by_kind()
+    import sys
+
+    if sys.argv[1:2] == ["where"]:
+        for env_id in sys.argv[2:] or tactile_gym.JOINT_ENV_IDS[:2]:
+            where(env_id)
+    else:
+        by_kind()

@@ -55,9 +55,7 @@ class JointProbeEnv(HingeProbeEnv):
     face moves a hinged or sliding link, and what moved between presses tells the joint.
 
     The scripted baseline (``agents/joint_scripted.py``) and its figures against issue 28's
-    targets, with ``python benchmarks/joint_type_scripted.py``: ``docs/design.md`` 7.12 (on
-    ``JointProbePrimitive-v0`` 99.5 % of 200 test episodes end with the true type most
-    probable, on ``JointProbe3DPrimitive-v0`` 97.5 %).
+    targets, with ``python benchmarks/joint_type_scripted.py``: ``docs/design.md`` 7.12.
 
     ## Action Space
 
