@@ -2,7 +2,8 @@
 
 Conventions: world frame, metres, radians. Points are contact points on the link's edge,
 edges its direction there (any sign; each new edge is oriented like the best-aligned of
-the previous few, see :func:`tactile_gym.spatial.orient_edges`), ``point_std`` the
+the previous few, see :func:`tactile_gym.spatial.orient_edges`; ``covariance="calibrated"``
+keeps the sign as handed), ``point_std`` the
 contact-point std per axis (m), ``edge_std`` the edge's total RMS angle error (rad) and
 ``edge_cov`` optionally its full covariance (rad^2), as for
 :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`.
