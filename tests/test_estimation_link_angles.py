@@ -209,3 +209,22 @@ def test_a_press_where_a_single_press_line_crosses_another_link_angle_is_apart(
     wild = rot(VERTICAL, math.radians(30.0)) @ edge0
     angles.add(crossing + 0.02 * edge0 + [0.0, 1e-4, 0.0], wild, POINT_STD**2, EDGE_STD**2)
     assert angles.groups == [[0, 2], [1]]
+
+
+@pytest.mark.parametrize("mode", ["planar", "3d"])
+def test_a_turn_beyond_90_deg_between_presses_keeps_the_handed_sign(mode: str) -> None:
+    """Noise-free presses at two link angles 115 deg apart, each edge signed with the link as
+    the gate signs it (physically), and a prior at the truth: the estimate is the truth.
+    Signed like the last few edges instead, the second link angle's edges flip, and the
+    planar fit's equal signed distances put the axis on the other bisector of the two lines
+    (development seed 202853 of the planar v3 id: 20 mm off with a 5.8 mm std)."""
+    u = _axis(mode)
+    prior = _prior(mode, offset=0.0)
+    points, edges = _presses(u, [0.0, 2.0], LEVERS, planar=mode == "planar")
+    est = _estimator(mode, prior, points, edges)
+    fit = est.estimate()
+    assert len(est._angles.groups) == 2
+    np.testing.assert_allclose(est.edges, edges, atol=1e-12)
+    position, angle = axis_error(fit, PIN, u, PIN)
+    assert position < 1e-6
+    assert angle < 1e-6

@@ -2,7 +2,8 @@
 
 Conventions: world frame, metres, radians. Points are contact points on the link's edge,
 edges its direction there (any sign; each new edge is oriented like the best-aligned of
-the previous few, see :func:`tactile_gym.spatial.orient_edges`), ``point_std`` the
+the previous few, see :func:`tactile_gym.spatial.orient_edges`; ``covariance="calibrated"``
+keeps the sign as handed), ``point_std`` the
 contact-point std per axis (m), ``edge_std`` the edge's total RMS angle error (rad) and
 ``edge_cov`` optionally its full covariance (rad^2), as for
 :func:`~tactile_gym.estimation.fit3d.fit_axis_3d`.
@@ -80,7 +81,9 @@ class JointAxisEstimator:
     the axis: until a second link angle the estimate stays the prior's (``method="prior"``).
     Its 3D fit keeps the best of several refined starts and the parallel model only where
     the prior admits it (``Fit3D.fit_lines``), so that a local minimum does not make a
-    confident wrong estimate.
+    confident wrong estimate. It takes each edge's sign as handed, so its edges must be signed
+    consistently with the link (the gate signs them physically, docs/design.md 7.3): re-signed
+    like the last few, an edge after a turn of more than 90 deg flips.
 
     Both modes use ``loss``; how each fit uses it and warm-starts is told by
     :class:`~tactile_gym.estimation.fits.PlanarFit` and
@@ -185,7 +188,8 @@ class JointAxisEstimator:
         Args:
             point: (3,) contact point, world frame, m ((2,) allowed in planar mode).
             edge: (3,) edge direction, world frame, any length > 0 and any sign ((2,)
-                allowed in planar mode). In planar mode its z part is dropped after
+                allowed in planar mode; ``covariance="calibrated"``: signed physically, its
+                sign is kept). In planar mode its z part is dropped after
                 ``edge_std`` or ``edge_cov`` has given the variance of its rotation about z.
             point_std: contact-point std per axis, m, >= 0.
             edge_std: total RMS angle error of the edge, rad, >= 0. Without ``edge_cov``
@@ -255,8 +259,15 @@ class JointAxisEstimator:
         if n == self._points.shape[0]:
             self._grow()
         self._points[n] = xl
-        # The first edge keeps its sign; later ones follow the best-aligned of the last few.
-        self._edges[n] = orient_like(el, self._edges[max(0, n - SIGN_LOOKBACK) : n]) if n else el
+        if self.covariance == "calibrated" or not n:
+            # Calibrated: the sign as handed. The gate signs every edge physically (docs/design.md
+            # 7.3); signed like the last few instead, an edge after a turn of more than 90 deg
+            # between presses flipped, and the planar fit put the axis on the wrong bisector of
+            # the two lines with a confident std (docs/design.md 6.9).
+            self._edges[n] = el
+        else:
+            # Later edges follow the best-aligned of the last few.
+            self._edges[n] = orient_like(el, self._edges[max(0, n - SIGN_LOOKBACK) : n])
         self._point_std[n] = sx
         self._edge_noise[n] = noise
         if self.covariance == "calibrated":
