@@ -42,7 +42,7 @@ from tactile_gym.estimation.lines import (
 )
 from tactile_gym.estimation.online import COVARIANCES, JointAxisEstimator
 from tactile_gym.estimation.prior import PIN_STD_FLOOR, AxisPrior
-from tactile_gym.estimation.problem import _PriorTerm, basis
+from tactile_gym.estimation.problem import PriorTerm, basis
 from tactile_gym.estimation.robust import check_loss
 from tactile_gym.vec3 import cross_rows
 
@@ -1089,7 +1089,7 @@ class RevoluteModel(_LineModel):
             return np.zeros(2), -math.log(2.0 * math.pi) - 0.5 * log_det, r, winv
         # Whitened for the start's axis, held during a solve as the axis fits hold it.
         if "prior_term" not in start.memo:
-            term = _PriorTerm(prior, np.zeros(3))
+            term = PriorTerm(prior, np.zeros(3))
             term.set_axis(start.joint[0])
             start.memo["prior_term"] = term
         term = start.memo["prior_term"]

@@ -13,7 +13,7 @@ axis (isotropic point noise; the edge noise ``edge_cov``, isotropic about the ed
 ``edge_std`` is given) and whitens the residuals by it; the covariance of the result is then
 absolute. Without stds a residual in radians is scaled by the RMS spread of the contact
 points (a length) and one common noise level is estimated from the residuals. A prior
-(docs/design.md 6.6) adds four whitened residuals (:class:`_PriorTerm`).
+(docs/design.md 6.6) adds four whitened residuals (:class:`PriorTerm`).
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ __all__ = [
     "covariance_local",
     "inverse_cholesky",
     "Noise",
+    "PriorTerm",
     "Problem",
 ]
 
@@ -73,7 +74,7 @@ class Noise:
         return np.sqrt(self.mean_var + spread)
 
 
-class _PriorTerm:
+class PriorTerm:
     """The prior's four whitened residuals (:mod:`~tactile_gym.estimation.prior`), in the
     centred frame of a :class:`Problem`.
 
@@ -137,12 +138,12 @@ class Problem:
 
     ``noise`` is a :class:`Noise`, or None when no stds were given; ``prior`` an
     :class:`~tactile_gym.estimation.prior.AxisPrior` or None (it needs ``noise``), kept as a
-    :class:`_PriorTerm`; its four residuals follow the measurements' in the fits.
+    :class:`PriorTerm`; its four residuals follow the measurements' in the fits.
     """
 
     def __init__(self, x, e, w, noise, loss, f_scale, prior=None):
         self.centre = x.mean(axis=0)
-        self.prior = None if prior is None else _PriorTerm(prior, self.centre)
+        self.prior = None if prior is None else PriorTerm(prior, self.centre)
         self.x = x - self.centre
         self.e = e
         self.sqrt_w = np.sqrt(w)
