@@ -35,12 +35,12 @@ from tactile_gym.estimation.joint_models import (
     JOINT_TYPES,
     PARAMETER_LAYOUTS,
     JointModel,
-    JointTypePrior,
     ModelFit,
-    PrismaticModel,
-    RevoluteModel,
     RigidModel,
 )
+from tactile_gym.estimation.joint_prior import JointTypePrior
+from tactile_gym.estimation.joint_prismatic import PrismaticModel
+from tactile_gym.estimation.joint_revolute import RevoluteModel
 from tactile_gym.estimation.joint_type import (
     FLAGS,
     OUTCOMES,

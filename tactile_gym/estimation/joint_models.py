@@ -16,7 +16,7 @@ Every model has the same nuisance parameters: each edge line (direction and posi
 and each configuration's motion (one number, relative to the first configuration of its
 connected group of lines and configurations). Each :class:`JointModel` returns a
 :class:`ModelFit`: its parameters and their covariance, the log-likelihood, the number of
-free parameters and the Laplace evidence under the priors of :class:`JointTypePrior`.
+free parameters and the Laplace evidence under the priors of :class:`~tactile_gym.estimation.joint_prior.JointTypePrior`.
 """
 
 from __future__ import annotations
@@ -30,32 +30,31 @@ from typing import ClassVar
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
 
-from tactile_gym.estimation.axis import COVARIANCE_LAYOUT, AxisEstimate, canonical_direction
+from tactile_gym.estimation.axis import COVARIANCE_LAYOUT, AxisEstimate
+from tactile_gym.estimation.joint_prior import JointTypePrior
 from tactile_gym.estimation.lines import (
     DOF_PER_MEASUREMENT,
-    EDGE_STD_FLOOR,
     Evidence,
     LineData,
     laplace_evidence,
     line_residuals,
     line_rows,
 )
-from tactile_gym.estimation.online import COVARIANCES, JointAxisEstimator
-from tactile_gym.estimation.prior import PIN_STD_FLOOR, AxisPrior
-from tactile_gym.estimation.problem import PriorTerm, basis
-from tactile_gym.estimation.robust import check_loss
-from tactile_gym.vec3 import cross_rows
+from tactile_gym.estimation.problem import basis
 
 __all__ = [
     "JOINT_TYPES",
+    "MODES",
     "PARAMETER_LAYOUTS",
     "JointModel",
-    "JointTypePrior",
+    "LineModel",
+    "LineState",
     "ModelFit",
-    "PrismaticModel",
-    "RevoluteModel",
     "RigidModel",
+    "mean_lines",
     "minimise",
+    "normalise",
+    "rotations",
     "saturated_evidence",
     "small_motions",
 ]
@@ -77,92 +76,6 @@ MODES = ("planar", "3d")
 # prior's).
 _PRIOR_SHARE = 0.25
 
-_EZ = np.array([0.0, 0.0, 1.0])
-
-
-@dataclass(frozen=True)
-class JointTypePrior:
-    """What is known before touching: the priors of the joint-type models (docs/design.md 6.10).
-
-    Attributes:
-        type_probabilities: prior probabilities of rigid, revolute and prismatic (> 0; they
-            are normalised with ``none_probability``).
-        none_probability: prior probability that no model holds (every measurement its own
-            line: inconsistent data), in (0, 1).
-        axis: Gaussian prior of a revolute axis, e.g. the reset distribution's
-            (:meth:`AxisPrior.from_samples`); None: a broad one centred on the first contact
-            (pin std ``workspace / sqrt(2 pi)`` per axis; ``"3d"``: direction z with an RMS
-            angle of sqrt(2) rad, the tangent-plane Gaussian whose peak is the uniform
-            density on the hemisphere).
-        workspace: side of the region the edge lines lie in, m: an edge line's position has a
-            uniform prior over ``workspace^2`` normal to it.
-        turn_range: range of a revolute joint's angle, rad: a configuration's turn has a
-            uniform prior of density ``1 / turn_range``.
-        travel_range: range of a prismatic joint's travel, m: likewise for its shift.
-        stuck_probability: chance that a change of configuration left the link where it
-            was (held by its friction, or not pushed), in [0, 1), each independently: a
-            jointed link that never moved over k changes (probability ``stuck^k``) looks
-            rigid; otherwise its motions are uniform over their range.
-        along_edge_probability: chance that a prismatic joint slides along one of the
-            measured edge lines (drawers slide along their sides), in [0, 1); otherwise its
-            direction is uniform (hemisphere; ``"planar"``: half circle).
-
-    Raises:
-        ValueError: on a value out of its range.
-    """
-
-    type_probabilities: tuple[float, float, float] = (1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0)
-    none_probability: float = 0.01
-    axis: AxisPrior | None = None
-    workspace: float = 1.0
-    turn_range: float = math.pi
-    travel_range: float = 0.2
-    stuck_probability: float = 0.5
-    along_edge_probability: float = 0.5
-
-    def __post_init__(self) -> None:
-        probs = tuple(float(p) for p in self.type_probabilities)
-        if len(probs) != 3 or not all(math.isfinite(p) and p > 0 for p in probs):
-            raise ValueError(
-                "type_probabilities must be three finite numbers > 0 (rigid, revolute, "
-                f"prismatic), got {self.type_probabilities!r}"
-            )
-        object.__setattr__(self, "type_probabilities", probs)
-        _check_range("none_probability", self.none_probability, 0.0, 1.0, open_low=True)
-        for name in ("workspace", "turn_range", "travel_range"):
-            value = float(getattr(self, name))
-            if not (math.isfinite(value) and value > 0):
-                unit = "rad" if name == "turn_range" else "m"
-                raise ValueError(f"{name} must be a finite number > 0 {unit}, got {value!r}")
-        _check_range("stuck_probability", self.stuck_probability, 0.0, 1.0)
-        _check_range("along_edge_probability", self.along_edge_probability, 0.0, 1.0)
-        if self.axis is not None and not isinstance(self.axis, AxisPrior):
-            raise ValueError(f"axis must be an AxisPrior or None, got {type(self.axis).__name__}")
-
-    @property
-    def log_outcome_priors(self) -> np.ndarray:
-        """(4,) log prior probabilities of rigid, revolute, prismatic and none."""
-        p = np.array(self.type_probabilities)
-        p = p / p.sum() * (1.0 - self.none_probability)
-        return np.log(np.append(p, self.none_probability))
-
-    def axis_prior(self, mode: str, first_point: np.ndarray) -> AxisPrior:
-        """The revolute axis prior: ``axis``, or the broad default about ``first_point``."""
-        if self.axis is not None:
-            return self.axis
-        var = self.workspace**2 / (2.0 * math.pi)
-        if mode == "planar":
-            return AxisPrior(first_point, np.diag([var, var, 0.0]), _EZ, 0.0)
-        return AxisPrior(first_point, var * np.eye(3), _EZ, math.sqrt(2.0))
-
-
-def _check_range(name: str, value: float, low: float, high: float, open_low=False) -> None:
-    v = float(value)
-    ok = (v > low if open_low else v >= low) and v < high
-    if not (math.isfinite(v) and ok):
-        bracket = "(" if open_low else "["
-        raise ValueError(f"{name} must be in {bracket}{low}, {high}), got {value!r}")
-
 
 @dataclass(frozen=True)
 class ModelFit:
@@ -171,7 +84,7 @@ class ModelFit:
     Attributes:
         joint_type: ``"rigid"``, ``"revolute"`` or ``"prismatic"``.
         log_evidence: ``ln p(measurements | type)``: the Laplace approximation over every
-            parameter (lines, motions, joint) under the :class:`JointTypePrior`, with its
+            parameter (lines, motions, joint) under the :class:`~tactile_gym.estimation.joint_prior.JointTypePrior`, with its
             mixtures (a link that did not move; a slide along a measured edge).
         log_likelihood: ``ln p(measurements | type, fitted parameters)`` (densities of the 4
             degrees of freedom of each measurement).
@@ -238,7 +151,7 @@ class JointModel(ABC):
 
     def reset_start(self) -> None:
         """Start the next fit afresh, not from the last one."""
-        self._state: _LineState | None = None
+        self._state: LineState | None = None
 
     @abstractmethod
     def fit(self, data: LineData, rigid: ModelFit | None = None) -> ModelFit:
@@ -256,7 +169,7 @@ class JointModel(ABC):
 
 
 @dataclass
-class _LineState:
+class LineState:
     """Edge lines at the reference configurations, motions, and the joint.
 
     ``eps`` (J, 3) unit directions, ``a`` (J, 3) points (m), ``q`` (M,) motions (m or rad; 0
@@ -272,14 +185,14 @@ class _LineState:
     memo: dict = field(default_factory=dict, repr=False, compare=False)
 
 
-def _rotations(u: np.ndarray, q: np.ndarray) -> np.ndarray:
+def rotations(u: np.ndarray, q: np.ndarray) -> np.ndarray:
     """(N, 3, 3) rotations by angles q about the unit axis u (Rodrigues)."""
     k = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
     s, c = np.sin(q)[:, None, None], np.cos(q)[:, None, None]
     return np.eye(3) + s * k + (1.0 - c) * (k @ k)
 
 
-def _normalise(v: np.ndarray) -> np.ndarray:
+def normalise(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
@@ -368,7 +281,7 @@ def small_motions(data: LineData, turns: bool, planar: bool):
         ``(eps, a, omega, tau, centre)``: the lines at their references (J, 3), the free
         configurations' twists (F, 3) each, and c (3,).
     """
-    eps, a = _mean_lines(data)
+    eps, a = mean_lines(data)
     centre = data.x.mean(axis=0)
     j, free = data.n_lines, data.free_configs
     frame = np.array([basis(v) for v in eps]).reshape(-1, 2, 3)
@@ -401,7 +314,7 @@ def small_motions(data: LineData, turns: bool, planar: bool):
         mat[i, 2:4, k + n_rot : k + per_config] = b / data.sx[i]
     sol = np.linalg.lstsq(mat.reshape(4 * data.n, -1), rhs.ravel(), rcond=None)[0]
     lines = sol[: 4 * j].reshape(j, 4)
-    eps_ref = _normalise(eps + np.einsum("jm,jmk->jk", lines[:, :2], frame))
+    eps_ref = normalise(eps + np.einsum("jm,jmk->jk", lines[:, :2], frame))
     a_ref = a + np.einsum("jm,jmk->jk", lines[:, 2:], frame)
     motion = sol[4 * j :].reshape(free.size, per_config)
     omega = np.zeros((free.size, 3))
@@ -416,7 +329,7 @@ def _skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def _mean_lines(data: LineData, back=None):
+def mean_lines(data: LineData, back=None):
     """Each line's mean direction and mean point over its measurements, after ``back``
     (rotations (N, 3, 3) about a centre (3,)) undid each measurement's motion."""
     e, x = data.e, data.x
@@ -439,7 +352,7 @@ def _mean_lines(data: LineData, back=None):
     return eps, a
 
 
-class _LineModel(JointModel):
+class LineModel(JointModel):
     """What the three models share: the lines, the motions and the joint's parameters
     fitted together by :func:`minimise`, the Laplace evidence, and the mixture of a link that
     did not move.
@@ -454,7 +367,7 @@ class _LineModel(JointModel):
     # --- what a subclass says
 
     @abstractmethod
-    def _predict(self, data: LineData, state: _LineState):
+    def _predict(self, data: LineData, state: LineState):
         """(eps_p, a_p, rot): each measurement's predicted line (N, 3), and the rotation of
         its line (N, 3, 3), None where lines only translate."""
 
@@ -467,7 +380,7 @@ class _LineModel(JointModel):
         """Number of the joint's parameters."""
         return 0
 
-    def _joint_value(self, start: _LineState, xj: np.ndarray, eps: np.ndarray):
+    def _joint_value(self, start: LineState, xj: np.ndarray, eps: np.ndarray):
         """The joint at local coordinates xj about ``start.joint`` (``eps``: the lines'
         directions there)."""
         return start.joint
@@ -486,20 +399,20 @@ class _LineModel(JointModel):
 
     # --- the machinery
 
-    def _frame(self, state: _LineState) -> np.ndarray:
+    def _frame(self, state: LineState) -> np.ndarray:
         """(J, 2, 3) bases normal to the line directions: a line's local coordinates turn
         its direction and move its point along them."""
         return np.array([basis(v) for v in state.eps]).reshape(-1, 2, 3)
 
-    def _unpack(self, data, start, frame, x) -> _LineState:
+    def _unpack(self, data, start, frame, x) -> LineState:
         j = start.eps.shape[0]
         lines = x[: 4 * j].reshape(j, 4)
-        eps = _normalise(start.eps + np.einsum("jm,jmk->jk", lines[:, :2], frame))
+        eps = normalise(start.eps + np.einsum("jm,jmk->jk", lines[:, :2], frame))
         a = start.a + np.einsum("jm,jmk->jk", lines[:, 2:], frame)
         q = start.q.copy()
         free = data.free_configs
         q[free] += x[4 * j : 4 * j + free.size]
-        return _LineState(eps, a, q, self._joint_value(start, x[4 * j + free.size :], eps))
+        return LineState(eps, a, q, self._joint_value(start, x[4 * j + free.size :], eps))
 
     def _jacobian(self, data, start, frame, x, state) -> np.ndarray:
         """(6N, P) Jacobian of the measurements' residuals in the local coordinates x about
@@ -542,7 +455,7 @@ class _LineModel(JointModel):
         eps_p, a_p, _ = self._predict(data, state)
         return line_residuals(data, eps_p, a_p).ravel()
 
-    def _problem(self, data: LineData, start: _LineState):
+    def _problem(self, data: LineData, start: LineState):
         """(fun, jac, precisions, unpack) in local coordinates about start: the
         measurements' residuals followed by the joint prior's Gaussian ones."""
         frame = self._frame(start)
@@ -580,7 +493,7 @@ class _LineModel(JointModel):
         )
         return fun, jac, precision, unpack
 
-    def _solve(self, data: LineData, start: _LineState) -> _LineState:
+    def _solve(self, data: LineData, start: LineState) -> LineState:
         """The lines, motions and joint that minimise the residuals and the priors' cost.
 
         A direction's local coordinates describe it well near the start only: when one has
@@ -595,7 +508,7 @@ class _LineModel(JointModel):
             start = state
         return state
 
-    def _angle_coords(self, data: LineData, start: _LineState) -> np.ndarray:
+    def _angle_coords(self, data: LineData, start: LineState) -> np.ndarray:
         """Indices of the local coordinates that turn a direction (the lines' first two,
         then the joint's ``_n_joint_angles``)."""
         j = start.eps.shape[0]
@@ -607,13 +520,13 @@ class _LineModel(JointModel):
         """How many of the joint's leading local coordinates turn a direction."""
         return 0
 
-    def _cost(self, data: LineData, state: _LineState) -> float:
+    def _cost(self, data: LineData, state: LineState) -> float:
         """The residuals' and the Gaussian priors' cost at a state."""
         fun, _, precision, _ = self._problem(data, state)
         r = fun(np.zeros(precision.size))
         return float(r @ r)
 
-    def _evidence(self, data: LineData, state: _LineState, rigid_log_evidence=None):
+    def _evidence(self, data: LineData, state: LineState, rigid_log_evidence=None):
         """(Evidence, info) at a fitted state; the log evidence in ``info`` includes the
         mixture of a link that did not move (given the rigid model's evidence)."""
         fun, jac, precision, _ = self._problem(data, state)
@@ -685,7 +598,7 @@ class _LineModel(JointModel):
 
     # --- starts
 
-    def _warm(self, cold: _LineState) -> _LineState:
+    def _warm(self, cold: LineState) -> LineState:
         """The cold start with the last fit's lines, motions and joint where they exist."""
         old = self._state
         if old is None:
@@ -702,7 +615,7 @@ class _LineModel(JointModel):
         return rigid.log_evidence
 
 
-class RigidModel(_LineModel):
+class RigidModel(LineModel):
     """The edge lines do not move. Parameters: none beyond the lines."""
 
     joint_type = "rigid"
@@ -713,8 +626,8 @@ class RigidModel(_LineModel):
     def fit(self, data: LineData, rigid: ModelFit | None = None) -> ModelFit:
         # No motions: every configuration is its own reference.
         flat = dataclasses.replace(data, reference=np.ones(data.n_configs, dtype=bool))
-        eps, a = _mean_lines(flat)
-        state = self._solve(flat, self._warm(_LineState(eps, a, np.zeros(data.n_configs))))
+        eps, a = mean_lines(flat)
+        state = self._solve(flat, self._warm(LineState(eps, a, np.zeros(data.n_configs))))
         self._state = state
         ev, info = self._evidence(flat, state)
         return self._model_fit(data, ev, info, np.zeros(0), None, True)
@@ -734,460 +647,5 @@ def saturated_evidence(data: LineData, prior: JointTypePrior) -> float:
         reference=np.ones(data.n, dtype=bool),
     )
     model = RigidModel("3d", prior)
-    state = _LineState(data.e.copy(), data.x.copy(), np.zeros(data.n))
+    state = LineState(data.e.copy(), data.x.copy(), np.zeros(data.n))
     return model._evidence(own, state)[1]["log_evidence"]
-
-
-class PrismaticModel(_LineModel):
-    """Edge lines keep their direction and shift along the joint direction v.
-
-    Parameters: the unit direction v (``"3d"``: 2 dof, uniform on the hemisphere;
-    ``"planar"``: in the table plane, 1 dof, uniform on the half circle). With the prior's
-    ``along_edge_probability``, v is instead along one of the measured edge lines (a model
-    of its own for each direction, ``along``): a slide along an edge moves neither that
-    edge's line nor those parallel to it (the edges of a face are parallel), so without
-    this a slide along the only measured edge would count as proof of a rigid link.
-
-    Args:
-        mode: ``"planar"`` or ``"3d"``.
-        prior: the priors.
-        along: None (v fitted), or ``(j, parallel)``: v is line j's direction
-            (``"planar"``: its part in the table plane), and the lines in ``parallel``
-            (indices, j among them) do not move.
-    """
-
-    joint_type = "prismatic"
-
-    def __init__(
-        self,
-        mode: str = "3d",
-        prior: JointTypePrior | None = None,
-        along: tuple[int, list[int]] | None = None,
-    ) -> None:
-        super().__init__(mode, prior)
-        self.motion_range = self.prior.travel_range
-        self.along = along
-
-    def reset(self) -> None:
-        super().reset()
-        self._along: dict = {}
-
-    def reset_start(self) -> None:
-        super().reset_start()
-        for model in getattr(self, "_along", {}).values():
-            model.reset_start()
-
-    def _moves(self, data: LineData) -> np.ndarray:
-        """(N,) 1 where the measurement's line moves with the joint, 0 where it slides
-        along itself."""
-        if self.along is None:
-            return np.ones(data.n)
-        return 1.0 - np.isin(data.line, self.along[1])
-
-    def _tangents(self, v: np.ndarray) -> np.ndarray:
-        """(K, 3) directions normal to v that v's local coordinates move it along."""
-        if self.mode == "planar":
-            return np.cross(_EZ, v)[None]
-        return np.array(basis(v))
-
-    def _n_joint(self) -> int:
-        if self.along is not None:
-            return 0
-        return 1 if self.mode == "planar" else 2
-
-    def _n_joint_angles(self) -> int:
-        return self._n_joint()
-
-    def _flatten(self, e: np.ndarray) -> tuple[np.ndarray, float]:
-        """A line direction as a joint direction (``"planar"``: its part in the table
-        plane, normalised), and the length it was divided by."""
-        if self.mode == "planar":
-            e = e * [1.0, 1.0, 0.0]
-        n = float(np.linalg.norm(e))
-        return e / n, n
-
-    def _joint_value(self, start, xj, eps):
-        if self.along is not None:
-            return self._flatten(eps[self.along[0]])[0]
-        return _normalise(start.joint + xj @ self._tangents(start.joint))
-
-    def _predict(self, data, state):
-        q = state.q[data.config] * self._moves(data)
-        return state.eps[data.line], state.a[data.line] + q[:, None] * state.joint, None
-
-    def _motion_rows(self, data, state, eps_p, a_p):
-        return np.zeros((data.n, 3)), self._moves(data)[:, None] * state.joint
-
-    def _joint_rows(self, data, state, eps_p, a_p, rot, start, xj):
-        # d v / d gamma_m = (I - v v^T) t_m / |v0 + T gamma|; the lines move by q dv.
-        v, t = state.joint, self._tangents(start.joint)
-        dv = (t - np.outer(t @ v, v)) / np.linalg.norm(start.joint + xj @ t)
-        da = state.q[data.config][:, None, None] * dv[None]
-        return np.zeros_like(da), da
-
-    def _jacobian(self, data, start, frame, x, state):
-        jac = super()._jacobian(data, start, frame, x, state)
-        if self.along is None:
-            return jac
-        # v is line j's direction: its direction coordinates move the moving lines by q dv.
-        j = self.along[0]
-        e = state.eps[j]
-        raw = start.eps[j] + x[4 * j : 4 * j + 2] @ frame[j]
-        de = (frame[j] - np.outer(frame[j] @ e, e)) / np.linalg.norm(raw)  # (2, 3)
-        v, n = self._flatten(e)
-        flat = de * [1.0, 1.0, 0.0] if self.mode == "planar" else de
-        dv = (flat - np.outer(flat @ v, v)) / n
-        da = (state.q[data.config] * self._moves(data))[:, None, None] * dv[None]
-        eps_p, a_p, _ = self._predict(data, state)
-        rows = line_rows(data, eps_p, a_p, np.zeros_like(da), da)
-        jac = jac.reshape(data.n, 6, -1)
-        jac[:, :, 4 * j : 4 * j + 2] += rows
-        return jac.reshape(6 * data.n, -1)
-
-    def _joint_prior(self, state, start, xj):
-        if self.along is not None:
-            return np.zeros(0), 0.0, None, None
-        # Uniform on the half circle (density 1 / pi) or on the hemisphere (1 / (2 pi)).
-        if self.mode == "planar":
-            return np.array([2.0 / math.pi]), -math.log(math.pi), None, None
-        return np.ones(2), -math.log(2.0 * math.pi), None, None
-
-    def _cold(self, data: LineData) -> _LineState:
-        """Each configuration's translation w_k (:func:`small_motions`); v their principal
-        direction (or line ``along``'s) and ``s_k = w_k . v``."""
-        eps, a, _, w, _ = small_motions(data, turns=False, planar=False)
-        if self.along is not None:
-            v = self._flatten(eps[self.along[0]])[0]
-        else:
-            if self.mode == "planar":
-                w = w * [1.0, 1.0, 0.0]
-            v = np.linalg.svd(w)[2][0] if w.size and np.abs(w).max() > 0 else np.eye(3)[0]
-        q = np.zeros(data.n_configs)
-        q[data.free_configs] = w @ v
-        return _LineState(eps, a, q, v)
-
-    def along_lines(self, data: LineData, state: _LineState) -> list[tuple[int, list[int]]]:
-        """The fitted lines grouped by direction (either sign; within 1 deg or 4 edge stds
-        per normal direction count as one), each group with its line measured most often
-        (``"planar"``: only lines with a part in the table plane)."""
-        count = np.bincount(data.line, minlength=state.eps.shape[0])
-        tol = math.cos(max(math.radians(1.0), 4.0 * float(data.edge_std.max())))
-        groups: list[list[int]] = []
-        for j, e in enumerate(state.eps):
-            if self.mode == "planar" and float(np.linalg.norm(e[:2])) < 0.1:
-                continue
-            for group in groups:
-                if abs(float(e @ state.eps[group[0]])) >= tol:
-                    group.append(j)
-                    break
-            else:
-                groups.append([j])
-        return [(max(group, key=lambda i: count[i]), group) for group in groups]
-
-    def _fit_state(self, data: LineData, log_rigid: float):
-        state = self._solve(data, self._warm(self._cold(data)))
-        self._state = state
-        return state, *self._evidence(data, state, log_rigid)
-
-    def fit(self, data: LineData, rigid: ModelFit | None = None) -> ModelFit:
-        """As ``JointModel.fit``; with ``along_edge_probability`` the evidence is the mixture
-        of a fitted direction and a slide along each measured edge, the direction reported
-        is that of its most probable component (the fitted one, or an edge's), and its
-        covariance the mixture's about it: each component's, plus its direction's offset
-        from the reported one, weighted by its posterior probability (``docs/design.md``
-        6.10)."""
-        log_rigid = self._rigid_log_evidence(data, rigid)
-        state, ev, info = self._fit_state(data, log_rigid)
-        v = state.joint
-        cols = info["joint_cols"]
-        t = self._tangents(v) if cols.size else np.zeros((0, 3))
-        cov = t.T @ ev.covariance[np.ix_(cols, cols)] @ t
-        identified = self._identified(ev, info)
-        along = self.prior.along_edge_probability
-        if self.along is None and along > 0.0:
-            models = {}
-            for group in self.along_lines(data, state):
-                key = (group[0], tuple(group[1]))
-                models[key] = self._along.get(key) or PrismaticModel(self.mode, self.prior, group)
-            # Kept for the next fit to start from (lines and configurations carry over).
-            self._along = models
-            fixed = [model._fit_state(data, log_rigid) for model in models.values()]
-            if fixed:
-                log_w = [math.log1p(-along) + info["log_evidence"]]
-                log_w += [
-                    math.log(along) - math.log(len(fixed)) + f[2]["log_evidence"] for f in fixed
-                ]
-                info["log_evidence"] = float(np.logaddexp.reduce(log_w))
-                parts = [(v, cov)]
-                parts += [m._edge_direction(*f[:2]) for m, f in zip(models.values(), fixed)]
-                w = np.exp(np.array(log_w) - info["log_evidence"])
-                best = int(np.argmax(w))
-                v = parts[best][0]
-                identified = identified or best > 0
-                cov = np.zeros((3, 3))
-                normal = np.eye(3) - np.outer(v, v)
-                for weight, (u, c) in zip(w, parts):
-                    offset = normal @ (u * math.copysign(1.0, float(u @ v)))
-                    cov += weight * (normal @ c @ normal + np.outer(offset, offset))
-        direction, _ = canonical_direction(v)
-        return self._model_fit(data, ev, info, direction, cov, identified)
-
-    def _edge_direction(self, state: _LineState, ev: Evidence) -> tuple[np.ndarray, np.ndarray]:
-        """A slide along line j (``along``): its direction (``"planar"``: in the table
-        plane) and covariance (3, 3), rad^2, from the line's direction's at the fit."""
-        j = self.along[0]
-        b = self._frame(state)[j]
-        cov = b.T @ ev.covariance[4 * j : 4 * j + 2, 4 * j : 4 * j + 2] @ b
-        v, n = self._flatten(state.eps[j])
-        if self.mode == "planar":
-            flat = np.diag([1.0, 1.0, 0.0])
-            d = (flat - np.outer(v, v) @ flat) / n
-            cov = d @ cov @ d.T
-        return v, cov
-
-
-class RevoluteModel(_LineModel):
-    """Edge lines turn about the axis (paper eq. 8: each keeps its distance and angle to it).
-
-    The axis and its covariance reported are the axis fits' (:class:`JointAxisEstimator`,
-    with the prior's axis prior, fed the measurements of the edge line measured most often).
-    The evidence is the Laplace approximation at the mode of the whole model: the lines,
-    the turns and the axis (with its prior) refined together from that estimate, so that the
-    lines the axis fit did not see count too (docs/design.md 6.10). The refined axis only
-    places the evidence; it is not reported.
-
-    Args:
-        mode: ``"planar"`` (vertical axis) or ``"3d"``.
-        prior: the priors.
-        loss: the axis fit's loss (one of ``LOSSES``).
-        covariance: what the axis fit takes the handed noise for (``COVARIANCES``:
-            ``"independent"`` or ``"calibrated"``, :class:`JointAxisEstimator`).
-    """
-
-    joint_type = "revolute"
-
-    def __init__(
-        self,
-        mode: str = "3d",
-        prior: JointTypePrior | None = None,
-        loss: str = "soft_l1",
-        covariance: str = "independent",
-    ) -> None:
-        check_loss(loss)
-        if covariance not in COVARIANCES:
-            raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
-        self.loss = loss
-        self.covariance = covariance
-        super().__init__(mode, prior)
-        self.motion_range = self.prior.turn_range
-
-    def reset(self) -> None:
-        super().reset()
-        self._axis_fit: JointAxisEstimator | None = None
-        self._primary = -1
-        self._fed = 0
-
-    def _axis(self, data: LineData) -> AxisEstimate:
-        """The axis fits' estimate from the measurements of the line measured most often
-        (ties: the earliest)."""
-        primary = int(np.argmax(np.bincount(data.line)))
-        if self._axis_fit is None or primary != self._primary:
-            prior = self.prior.axis_prior(self.mode, data.x[0])
-            self._axis_fit = JointAxisEstimator(
-                self.mode, self.loss, prior=prior, covariance=self.covariance
-            )
-            self._primary, self._fed = primary, 0
-        idx = np.flatnonzero(data.line == primary)
-        for i in idx[self._fed :]:
-            # The noise as the line residuals take it, floors included.
-            e = data.e[i]
-            floor = EDGE_STD_FLOOR**2 * (np.eye(3) - np.outer(e, e))
-            self._axis_fit.add(
-                data.x[i],
-                e,
-                data.sx[i],
-                math.hypot(data.edge_total_std[i], math.sqrt(2.0) * EDGE_STD_FLOOR),
-                edge_cov=data.edge_cov[i] + floor,
-            )
-        self._fed = idx.size
-        est = self._axis_fit.estimate()
-        if est.degenerate:
-            # Only input that overflows the axis fit gets here: the prior's axis then.
-            return self._axis_fit.prior.estimate(planar=self.mode == "planar")
-        return est
-
-    def _n_joint(self) -> int:
-        return 2 if self.mode == "planar" else 4
-
-    def _n_joint_angles(self) -> int:
-        return 0 if self.mode == "planar" else 2
-
-    def _axis_frame(self, start):
-        """The directions the axis's local coordinates turn its direction along (none in
-        ``"planar"``) and move its point along."""
-        if "axis_frame" not in start.memo:
-            if self.mode == "planar":
-                start.memo["axis_frame"] = np.zeros((0, 3)), np.eye(3)[:2]
-            else:
-                b = np.array(basis(start.joint[0]))
-                start.memo["axis_frame"] = b, b
-        return start.memo["axis_frame"]
-
-    def _joint_value(self, start, xj, eps):
-        u0, p0 = start.joint
-        turn, move = self._axis_frame(start)
-        nt = turn.shape[0]
-        u = _normalise(u0 + xj[:nt] @ turn) if nt else u0
-        return u, p0 + xj[nt:] @ move
-
-    def _predict(self, data, state):
-        u, p = state.joint
-        rot = _rotations(u, state.q[data.config])
-        eps = np.einsum("iab,ib->ia", rot, state.eps[data.line])
-        a = p + np.einsum("iab,ib->ia", rot, state.a[data.line] - p)
-        return eps, a, rot
-
-    def _motion_rows(self, data, state, eps_p, a_p):
-        u, p = state.joint
-        uu = np.broadcast_to(u, eps_p.shape)
-        return cross_rows(uu, eps_p), cross_rows(uu, a_p - p)
-
-    def _joint_rows(self, data, state, eps_p, a_p, rot, start, xj):
-        u, p = state.joint
-        turn, move = self._axis_frame(start)
-        q = state.q[data.config]
-        s, c = np.sin(q)[:, None], (1.0 - np.cos(q))[:, None]
-        eps, y = state.eps[data.line], state.a[data.line] - p
-        deps, da = [], []
-        if turn.shape[0]:
-            # d u = (I - u u^T) b / |u0 + B alpha| =: t, normal to u; then
-            # d(R x) = (t x x) sin q + (t (u . x) + u (t . x)) (1 - cos q).
-            tang = (turn - np.outer(turn @ u, u)) / np.linalg.norm(
-                _unnormalised_axis(start, turn, xj)
-            )
-            for t in tang:
-                tt = np.broadcast_to(t, eps.shape)
-                for v, out in ((eps, deps), (y, da)):
-                    out.append(
-                        cross_rows(tt, v) * s + (t * (v @ u)[:, None] + u * (v @ t)[:, None]) * c
-                    )
-        for dp in move:
-            deps.append(np.zeros_like(eps))
-            da.append(dp - np.einsum("iab,b->ia", rot, dp))
-        return np.stack(deps, axis=1), np.stack(da, axis=1)
-
-    def _joint_prior(self, state, start, xj):
-        """The axis prior as Gaussian residuals in the axis's local coordinates
-        (``"planar"``: on the pin's x and y)."""
-        u, p = state.joint
-        prior = self._axis_prior
-        if self.mode == "planar":
-            chol = np.linalg.cholesky(prior.pin_cov[:2, :2] + PIN_STD_FLOOR**2 * np.eye(2))
-            winv = np.linalg.inv(chol)
-            log_det = 2.0 * float(np.sum(np.log(np.diag(chol))))
-            r = winv @ (p[:2] - prior.pin[:2])
-            return np.zeros(2), -math.log(2.0 * math.pi) - 0.5 * log_det, r, winv
-        # Whitened for the start's axis, held during a solve as the axis fits hold it.
-        if "prior_term" not in start.memo:
-            term = PriorTerm(prior, np.zeros(3))
-            term.set_axis(start.joint[0])
-            start.memo["prior_term"] = term
-        term = start.memo["prior_term"]
-        z, ju, jp = term.residuals(u, p)
-        turn, move = self._axis_frame(start)
-        tang = (turn - np.outer(turn @ u, u)) / np.linalg.norm(_unnormalised_axis(start, turn, xj))
-        jac = np.column_stack([ju @ tang[0], ju @ tang[1], jp @ move[0], jp @ move[1]])
-        # Direction: variance angle_std^2 / 2 per normal direction; position: the pin's
-        # covariance projected normal to the axis.
-        var_d = 0.5 * prior.effective_angle_std**2
-        log_det = 2.0 * math.log(var_d) + math.log(
-            np.linalg.det(prior.projected_pin_cov(np.array(basis(start.joint[0]))))
-        )
-        return np.zeros(4), -2.0 * math.log(2.0 * math.pi) - 0.5 * log_det, z, jac
-
-    def _screw(self, data: LineData) -> tuple[np.ndarray, np.ndarray] | None:
-        """(u, p) of the zero-pitch screw that best spans the configurations' small
-        motions (:func:`small_motions`), or None when they do not turn."""
-        _, _, omega, tau, centre = small_motions(data, turns=True, planar=self.mode == "planar")
-        if not omega.size:
-            return None
-        # Rank one in (omega, tau / L), L the contacts' spread: twists theta_k (u, -u x p).
-        length = max(float(np.sqrt(np.mean(np.sum((data.x - centre) ** 2, axis=1)))), 1e-3)
-        xi = np.linalg.svd(np.hstack([omega, tau / length]))[2][0]
-        w0, t0 = xi[:3], xi[3:] * length
-        norm2 = float(w0 @ w0)
-        if not norm2 > 1e-12:
-            return None
-        u = w0 / math.sqrt(norm2) if self.mode == "3d" else _EZ
-        return u, centre + np.cross(w0, t0) / norm2
-
-    def _cold(self, data: LineData, u: np.ndarray, p: np.ndarray) -> _LineState:
-        """Turns from the azimuths about the axis of each measured line (its direction and
-        the foot of its common normal with the axis), spread over the graph of lines and
-        configurations from each group's reference; lines as the mean of the measured lines
-        turned back."""
-        b = np.array(basis(u))
-        w = data.x - p
-        e = data.e
-        eperp = e - (e @ u)[:, None] * u
-        # The foot of the common normal on each line: minimise |(x + t e - p) x u|.
-        t = -np.einsum("ij,ij->i", w, eperp) / np.maximum(
-            np.einsum("ij,ij->i", eperp, eperp), 1e-12
-        )
-        foot = w + t[:, None] * e
-        radial = foot - (foot @ u)[:, None] * u
-        ve = eperp @ b.T / data.edge_std[:, None]
-        vr = radial @ b.T / data.sx[:, None]
-        q = np.full(data.n_configs, np.nan)
-        q[data.reference] = 0.0
-        anchor = np.full(data.n_lines, -1)  # the measurement each line's azimuth is read from
-        changed = True
-        while changed:
-            changed = False
-            for i in range(data.n):
-                k, j = data.config[i], data.line[i]
-                if anchor[j] < 0 and not np.isnan(q[k]):
-                    anchor[j] = i
-                    changed = True
-                elif anchor[j] >= 0 and np.isnan(q[k]):
-                    m = anchor[j]
-                    cross = ve[m, 0] * ve[i, 1] - ve[m, 1] * ve[i, 0]
-                    cross += vr[m, 0] * vr[i, 1] - vr[m, 1] * vr[i, 0]
-                    turn = q[data.config[m]] + math.atan2(cross, ve[m] @ ve[i] + vr[m] @ vr[i])
-                    q[k] = turn if math.isfinite(turn) else 0.0
-                    changed = True
-        q = np.nan_to_num(q)
-        eps, a = _mean_lines(data, (_rotations(u, -q[data.config]), p))
-        return _LineState(eps, a, q, (u, p))
-
-    def fit(self, data: LineData, rigid: ModelFit | None = None) -> ModelFit:
-        log_rigid = self._rigid_log_evidence(data, rigid)
-        axis = self._axis(data)
-        self._axis_prior = self._axis_fit.prior
-        u = axis.direction if self.mode == "3d" else _EZ
-        start = self._cold(data, u, axis.point)
-        if self._state is not None:
-            state = self._solve(data, self._warm(start))
-        else:
-            # Over small turns the axis fit is badly conditioned (docs/design.md 6.3) and
-            # the refinement can end far from the mode: start from the screw of the
-            # configurations' small motions too, and keep the better.
-            states = [self._solve(data, start)]
-            screw = self._screw(data)
-            if screw is not None:
-                states.append(self._solve(data, self._cold(data, *screw)))
-            state = min(states, key=lambda st: self._cost(data, st))
-        self._state = state
-        ev, info = self._evidence(data, state, log_rigid)
-        params = np.concatenate([axis.point, axis.direction, [axis.distance]])
-        # Identified when the axis fit's spread is at most half the prior's.
-        before = self._axis_prior.estimate(planar=self.mode == "planar")
-        identified = axis.position_std <= 0.5 * before.position_std and (
-            self.mode == "planar" or axis.angle_std <= 0.5 * before.angle_std
-        )
-        return self._model_fit(data, ev, info, params, axis.covariance, identified, axis)
-
-
-def _unnormalised_axis(start: _LineState, turn: np.ndarray, xj: np.ndarray) -> np.ndarray:
-    """The unnormalised turned axis direction ``u0 + B alpha`` of the local coordinates."""
-    return start.joint[0] + xj[: turn.shape[0]] @ turn

@@ -43,13 +43,13 @@ from tactile_gym.estimation.interface import FULL_REFIT_GROWTH
 from tactile_gym.estimation.joint_models import (
     JOINT_TYPES,
     MODES,
-    JointTypePrior,
     ModelFit,
-    PrismaticModel,
-    RevoluteModel,
     RigidModel,
     saturated_evidence,
 )
+from tactile_gym.estimation.joint_prior import JointTypePrior
+from tactile_gym.estimation.joint_prismatic import PrismaticModel
+from tactile_gym.estimation.joint_revolute import RevoluteModel
 from tactile_gym.estimation.lines import (
     DOF_PER_MEASUREMENT,
     LineData,
@@ -132,7 +132,7 @@ class JointTypeEstimator:
     Args:
         mode: ``"planar"`` (a revolute axis is vertical, a prismatic direction horizontal)
             or ``"3d"``.
-        prior: the priors (:class:`~tactile_gym.estimation.joint_models.JointTypePrior`);
+        prior: the priors (:class:`~tactile_gym.estimation.joint_prior.JointTypePrior`);
             kept across :meth:`reset`.
         loss: the revolute axis fit's loss (one of ``LOSSES``).
         covariance: what the revolute axis fit takes the handed noise for

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile_gym.estimation.axis import as_points, canonical_direction
-from tactile_gym.estimation.joint_models import JointTypePrior, PrismaticModel
+from tactile_gym.estimation.joint_prior import JointTypePrior
+from tactile_gym.estimation.joint_prismatic import PrismaticModel
 from tactile_gym.estimation.joint_type import JointTypeEstimator, feed
 from tactile_gym.estimation.metrics import direction_error
 
