@@ -16,7 +16,8 @@ Every model has the same nuisance parameters: each edge line (direction and posi
 and each configuration's motion (one number, relative to the first configuration of its
 connected group of lines and configurations). Each :class:`JointModel` returns a
 :class:`ModelFit`: its parameters and their covariance, the log-likelihood, the number of
-free parameters and the Laplace evidence under the priors of :class:`~tactile_gym.estimation.joint_prior.JointTypePrior`.
+free parameters and the Laplace evidence under the priors of
+:class:`~tactile_gym.estimation.joint_prior.JointTypePrior`.
 """
 
 from __future__ import annotations
@@ -84,8 +85,9 @@ class ModelFit:
     Attributes:
         joint_type: ``"rigid"``, ``"revolute"`` or ``"prismatic"``.
         log_evidence: ``ln p(measurements | type)``: the Laplace approximation over every
-            parameter (lines, motions, joint) under the :class:`~tactile_gym.estimation.joint_prior.JointTypePrior`, with its
-            mixtures (a link that did not move; a slide along a measured edge).
+            parameter (lines, motions, joint) under the
+            :class:`~tactile_gym.estimation.joint_prior.JointTypePrior`, with its mixtures (a
+            link that did not move; a slide along a measured edge).
         log_likelihood: ``ln p(measurements | type, fitted parameters)`` (densities of the 4
             degrees of freedom of each measurement).
         chi2: sum of the squared whitened residuals at the fit.
