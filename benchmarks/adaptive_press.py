@@ -27,7 +27,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
 # Measure the checkout this file is in (git worktrees share one virtual environment).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -37,6 +36,7 @@ import gymnasium as gym  # noqa: E402
 import tactile_gym  # noqa: E402, F401 - registers the envs
 from agents.cli import KEY_VALUE_HELP, KeyValue  # noqa: E402
 from agents.episodes import EpisodeRecord, run_episode, summarize  # noqa: E402
+from agents.paired import bootstrap_ci  # noqa: E402
 from agents.scripted import scripted_policy  # noqa: E402
 from agents.seeds import SELECTION_SEED  # noqa: E402
 from tactile_gym.envs import skills  # noqa: E402
@@ -123,13 +123,6 @@ def final_errors_mm(records: list[EpisodeRecord]) -> np.ndarray:
     return 1e3 * np.array([r.position_error[-1] for r in records])
 
 
-def paired_interval(diff: np.ndarray) -> tuple[float, float]:
-    """A percentile bootstrap 95 % interval of the mean of paired differences (10 000
-    resamples, a fixed seed)."""
-    ci = stats.bootstrap((diff,), np.mean, n_resamples=10_000, method="percentile", rng=0)
-    return float(ci.confidence_interval.low), float(ci.confidence_interval.high)
-
-
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", default="tactile_gym/HingeProbePrimitive-v3")
@@ -167,7 +160,7 @@ def main(argv: list[str] | None = None) -> None:
                 paired = "-"
             else:
                 diff = final_errors_mm(records) - reference
-                low, high = paired_interval(diff)
+                low, high = bootstrap_ci(diff)
                 paired = f"{diff.mean():+.2f} ({low:+.2f} to {high:+.2f})"
             print(
                 f"| {name} | {skin:g} | {row['position_mean_mm']:.2f} /"
