@@ -40,6 +40,8 @@ from agents.paired import bootstrap_ci  # noqa: E402
 from agents.scripted import scripted_policy  # noqa: E402
 from agents.seeds import SELECTION_SEED  # noqa: E402
 from tactile_gym.envs import skills  # noqa: E402
+from tactile_gym.perception import GateConfig  # noqa: E402
+from tactile_gym.registration import merge_keywords  # noqa: E402
 from tactile_gym.sim import SkinConfig  # noqa: E402
 
 #: The v3 ids' adaptive press (``tactile_gym``'s registration): its gate keywords.
@@ -48,27 +50,16 @@ V3_GATE = gym.spec("tactile_gym/HingeProbePrimitive-v3").kwargs["gate"]
 ADAPTIVE_GATE_KEYS = ("edge_std_target", "dwell_budget", "steady_rule")
 
 
-def merged(*layers: dict) -> dict:
-    """Keywords laid over one another, a nested section (a dict) merged key by key."""
-    out: dict = {}
-    for layer in layers:
-        for key, value in layer.items():
-            if isinstance(value, dict) and isinstance(out.get(key), dict):
-                value = {**out[key], **value}
-            out[key] = value
-    return out
-
-
-def press_kwargs(env_id: str, adaptive: dict | None) -> dict:
-    """The id's keywords with its press replaced: the v2 press (``adaptive`` None), or the
-    adaptive one of ``adaptive`` (:func:`adaptive`)."""
-    registered = gym.spec(env_id).kwargs
-    gate = {k: v for k, v in registered.get("gate", {}).items() if k not in ADAPTIVE_GATE_KEYS}
+def press_kwargs(adaptive: dict | None) -> dict:
+    """Keywords that replace an id's press: the v2 press (``adaptive`` None), or the adaptive
+    one of ``adaptive`` (:func:`adaptive`). Each adaptive gate field is set, to ``GateConfig``'s
+    default (the v2 gate's) where ``adaptive`` does not give it: ``gym.make`` merges a ``gate``
+    into the id's registered one, so a field left out would keep the registered value."""
     adaptive = adaptive or {"measure_gradient": False}
+    v2_gate = {key: getattr(GateConfig(), key) for key in ADAPTIVE_GATE_KEYS}
     return {
-        **registered,
         "measure_gradient": adaptive["measure_gradient"],
-        "gate": {**gate, **adaptive.get("gate", {})},
+        "gate": {**v2_gate, **adaptive.get("gate", {})},
     }
 
 
@@ -152,7 +143,7 @@ def main(argv: list[str] | None = None) -> None:
     for skin in args.skins:
         for name, press in (("v2", None), ("adaptive", chosen)):
             world = {"skin": {"normal_stiffness": skin * stiffness}} if skin != 1.0 else {}
-            kwargs = merged(press_kwargs(args.env, press), args.env_kwargs, world)
+            kwargs = merge_keywords(merge_keywords(press_kwargs(press), args.env_kwargs), world)
             records, held = play(args.env, kwargs, seeds)
             row = summarize(records)
             if press is None:
