@@ -25,10 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from .cli import json_safe, make_parser, run_main
+from .paired import bootstrap_ci
 
 __all__ = [
     "aggregate",
-    "bootstrap_ci",
     "describe",
     "load_runs",
     "markdown",
@@ -53,32 +53,6 @@ class RunResult:
     seed: int
     run_dir: Path
     summary: dict
-
-
-def bootstrap_ci(
-    values, confidence: float = 0.95, n_resamples: int = 10_000, seed: int = 0
-) -> tuple[float, float]:
-    """Percentile bootstrap confidence interval of the mean.
-
-    Args:
-        values: finite samples (one per seed).
-        confidence: coverage, in (0, 1).
-        n_resamples: bootstrap resamples.
-        seed: seeds the resampling, so a table is reproducible.
-
-    Returns:
-        ``(low, high)``; ``(nan, nan)`` for fewer than two values.
-    """
-    if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
-    values = np.asarray(values, dtype=float)
-    if values.size < 2:
-        return math.nan, math.nan
-    rng = np.random.default_rng(seed)
-    means = values[rng.integers(0, values.size, (n_resamples, values.size))].mean(axis=1)
-    alpha = (1.0 - confidence) / 2.0
-    low, high = np.quantile(means, [alpha, 1.0 - alpha])
-    return float(low), float(high)
 
 
 def describe(values) -> dict[str, float]:

@@ -16,8 +16,8 @@ displacement, ``fit_slide_simple``). Errors are the angle to the true direction,
 
 **What the operator knows.** The nominal layout (:class:`DrawerLayout`: where the drawer
 stands, its nominal yaw and its size) and the commanded pull. Everything the finger does
-follows from F/T readings, with the finger of ``agents.reproduce_paper`` (its press, tare
-and edge search: :func:`~agents.reproduce_paper.find_edge`), which reads of the layout only
+follows from F/T readings, with the paper's finger (``agents.paper_finger``: its press, tare
+and edge search, :func:`~agents.paper_finger.find_edge`), which reads of the layout only
 the top face's height (``thickness``).
 
 **The hand** (:func:`pull_by_hand` and :func:`carried_by_hand`, with the error the only code
@@ -51,7 +51,7 @@ from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig
 from tactile_gym.sim.scene import PHYSICS
 
 from .cli import make_parser, progress_bar, run_main
-from .reproduce_paper import DOWN, Finger, find_edge, lift, log_header
+from .paper_finger import DOWN, Finger, find_edge, lift, log_header
 
 __all__ = ["CASES", "DrawerLayout", "Trial", "reproduce"]
 

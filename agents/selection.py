@@ -39,8 +39,8 @@ from pathlib import Path
 import numpy as np
 
 from . import evaluate
-from .aggregate import bootstrap_ci
 from .cli import make_parser, run_main
+from .paired import bootstrap_ci
 from .runs import model_run, read_run
 from .seeds import RANGE_SIZE, SELECTION_SEED, TEST_SEED
 

@@ -27,7 +27,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
 # Measure the checkout this file is in (git worktrees share one virtual environment).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -37,9 +36,12 @@ import gymnasium as gym  # noqa: E402
 import tactile_gym  # noqa: E402, F401 - registers the envs
 from agents.cli import KEY_VALUE_HELP, KeyValue  # noqa: E402
 from agents.episodes import EpisodeRecord, run_episode, summarize  # noqa: E402
+from agents.paired import bootstrap_ci  # noqa: E402
 from agents.scripted import scripted_policy  # noqa: E402
 from agents.seeds import SELECTION_SEED  # noqa: E402
 from tactile_gym.envs import skills  # noqa: E402
+from tactile_gym.perception import GateConfig  # noqa: E402
+from tactile_gym.registration import merge_keywords  # noqa: E402
 from tactile_gym.sim import SkinConfig  # noqa: E402
 
 #: The v3 ids' adaptive press (``tactile_gym``'s registration): its gate keywords.
@@ -48,27 +50,16 @@ V3_GATE = gym.spec("tactile_gym/HingeProbePrimitive-v3").kwargs["gate"]
 ADAPTIVE_GATE_KEYS = ("edge_std_target", "dwell_budget", "steady_rule")
 
 
-def merged(*layers: dict) -> dict:
-    """Keywords laid over one another, a nested section (a dict) merged key by key."""
-    out: dict = {}
-    for layer in layers:
-        for key, value in layer.items():
-            if isinstance(value, dict) and isinstance(out.get(key), dict):
-                value = {**out[key], **value}
-            out[key] = value
-    return out
-
-
-def press_kwargs(env_id: str, adaptive: dict | None) -> dict:
-    """The id's keywords with its press replaced: the v2 press (``adaptive`` None), or the
-    adaptive one of ``adaptive`` (:func:`adaptive`)."""
-    registered = gym.spec(env_id).kwargs
-    gate = {k: v for k, v in registered.get("gate", {}).items() if k not in ADAPTIVE_GATE_KEYS}
+def press_kwargs(adaptive: dict | None) -> dict:
+    """Keywords that replace an id's press: the v2 press (``adaptive`` None), or the adaptive
+    one of ``adaptive`` (:func:`adaptive`). Each adaptive gate field is set, to ``GateConfig``'s
+    default (the v2 gate's) where ``adaptive`` does not give it: ``gym.make`` merges a ``gate``
+    into the id's registered one, so a field left out would keep the registered value."""
     adaptive = adaptive or {"measure_gradient": False}
+    v2_gate = {key: getattr(GateConfig(), key) for key in ADAPTIVE_GATE_KEYS}
     return {
-        **registered,
         "measure_gradient": adaptive["measure_gradient"],
-        "gate": {**gate, **adaptive.get("gate", {})},
+        "gate": {**v2_gate, **adaptive.get("gate", {})},
     }
 
 
@@ -123,13 +114,6 @@ def final_errors_mm(records: list[EpisodeRecord]) -> np.ndarray:
     return 1e3 * np.array([r.position_error[-1] for r in records])
 
 
-def paired_interval(diff: np.ndarray) -> tuple[float, float]:
-    """A percentile bootstrap 95 % interval of the mean of paired differences (10 000
-    resamples, a fixed seed)."""
-    ci = stats.bootstrap((diff,), np.mean, n_resamples=10_000, method="percentile", rng=0)
-    return float(ci.confidence_interval.low), float(ci.confidence_interval.high)
-
-
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", default="tactile_gym/HingeProbePrimitive-v3")
@@ -159,7 +143,7 @@ def main(argv: list[str] | None = None) -> None:
     for skin in args.skins:
         for name, press in (("v2", None), ("adaptive", chosen)):
             world = {"skin": {"normal_stiffness": skin * stiffness}} if skin != 1.0 else {}
-            kwargs = merged(press_kwargs(args.env, press), args.env_kwargs, world)
+            kwargs = merge_keywords(merge_keywords(press_kwargs(press), args.env_kwargs), world)
             records, held = play(args.env, kwargs, seeds)
             row = summarize(records)
             if press is None:
@@ -167,7 +151,7 @@ def main(argv: list[str] | None = None) -> None:
                 paired = "-"
             else:
                 diff = final_errors_mm(records) - reference
-                low, high = paired_interval(diff)
+                low, high = bootstrap_ci(diff)
                 paired = f"{diff.mean():+.2f} ({low:+.2f} to {high:+.2f})"
             print(
                 f"| {name} | {skin:g} | {row['position_mean_mm']:.2f} /"

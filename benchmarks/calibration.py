@@ -58,6 +58,7 @@ from scipy.optimize import brentq  # noqa: E402
 from scipy.stats import spearmanr  # noqa: E402
 
 from agents.cli import KEY_VALUE_HELP, KeyValue  # noqa: E402
+from agents.paired import resampled_means  # noqa: E402
 from agents.seeds import SELECTION_SEED, TEST_SEED  # noqa: E402
 from tactile_gym.estimation import (  # noqa: E402
     COVARIANCES,
@@ -420,9 +421,8 @@ def print_errors(env_id: str, record: dict) -> None:
 def _ratio(numerator: np.ndarray, denominator: np.ndarray) -> str:
     """``mean(numerator) / mean(denominator)`` and its bootstrap standard error over the
     episodes, as ``value +- error``."""
-    rng = np.random.default_rng(0)
-    draws = rng.integers(0, len(numerator), size=(BOOTSTRAP, len(numerator)))
-    spread = np.std(numerator[draws].mean(axis=1) / denominator[draws].mean(axis=1))
+    top, bottom = resampled_means(numerator, denominator, samples=BOOTSTRAP)
+    spread = np.std(top / bottom)
     return f"{numerator.mean() / denominator.mean():.2f} +- {spread:.2f}"
 
 

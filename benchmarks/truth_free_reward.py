@@ -44,6 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import gymnasium as gym  # noqa: E402
 
 import tactile_gym  # noqa: E402, F401
+from agents.paired import bootstrap_ci  # noqa: E402
 from agents.policies import make_policy  # noqa: E402
 from agents.scripted import scripted_policy  # noqa: E402
 from agents.seeds import SELECTION_SEED  # noqa: E402
@@ -143,12 +144,6 @@ def play(env_id: str, policy: str, seeds: list[int]) -> Outcomes:
     return Outcomes(e0=e0, e_end=e_end, u0=u0, u_end=u_end)
 
 
-def mean_interval(values: np.ndarray) -> tuple[float, float]:
-    """A percentile bootstrap 95 % interval of a mean (10 000 resamples, a fixed seed)."""
-    result = stats.bootstrap((values,), np.mean, n_resamples=10_000, method="percentile", rng=0)
-    return float(result.confidence_interval.low), float(result.confidence_interval.high)
-
-
 def ranking(results: dict[str, Outcomes]) -> tuple[float, float, float]:
     """Kendall's tau between the order by mean truth-free return and by mean final E (a
     higher return goes with a lower error, so the second order is of -E), Spearman's rho of
@@ -180,7 +175,7 @@ def main(argv: list[str] | None = None) -> None:
         )
         print("|---|---:|---:|---|---:|---:|")
         for policy, r in results.items():
-            low, high = mean_interval(r.free_gain - r.true_gain)
+            low, high = bootstrap_ci(r.free_gain - r.true_gain)
             print(
                 f"| {policy} | {r.free_gain.mean():+.3f} | {r.true_gain.mean():+.3f} "
                 f"| {np.mean(r.free_gain - r.true_gain):+.3f} [{low:+.3f}, {high:+.3f}] "

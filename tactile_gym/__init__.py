@@ -23,6 +23,8 @@ model gave no edge direction from a pure press and their start pose revealed the
 (``docs/design.md``, "Versions").
 """
 
+from tactile_gym.registration import RegisteredKeywords
+
 __version__ = "0.3.0"
 
 _PLANAR = {"families": ("scissors",), "estimator": "planar"}
@@ -112,13 +114,15 @@ try:
     from gymnasium.envs.registration import register
 except ImportError:  # perception alone, on a robot without Gymnasium: nothing to register
     register = None
+# Each id's keywords as RegisteredKeywords: gym.make's merge into a nested section
+# (gate={"dwell_budget": 20} keeps the id's other gate fields) instead of replacing it.
 for _version, _extra in _VERSIONS if register else ():
     for _name, (_entry, _vector_entry), _kwargs in _TASKS:
         register(
             id=f"tactile_gym/{_name}-{_version}",
             entry_point=_entry,
             vector_entry_point=_vector_entry,
-            kwargs={**_kwargs, **_extra},
+            kwargs=RegisteredKeywords({**_kwargs, **_extra}),
         )
 
 for _name, (_entry, _vector_entry), _kwargs in _JOINT_TASKS if register else ():
@@ -126,7 +130,7 @@ for _name, (_entry, _vector_entry), _kwargs in _JOINT_TASKS if register else ():
         id=f"tactile_gym/{_name}-v0",
         entry_point=_entry,
         vector_entry_point=_vector_entry,
-        kwargs={**_kwargs, **_LEAN_CALIBRATED},
+        kwargs=RegisteredKeywords({**_kwargs, **_LEAN_CALIBRATED}),
     )
 
 __all__ = ["ENV_IDS", "JOINT_ENV_IDS", "LEGACY_ENV_IDS", "PRIMITIVE_ENV_IDS", "__version__"]

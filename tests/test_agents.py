@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import shutil
 
 import gymnasium as gym
@@ -11,7 +12,7 @@ import pytest
 import yaml
 
 import tactile_gym  # noqa: F401 - registers the envs
-from agents import cli, episodes, evaluate, hyperparams, policies, resources, runs, train
+from agents import cli, episodes, evaluate, hyperparams, paired, policies, resources, runs, train
 from tactile_gym.presets import preset_path
 
 TINY = {
@@ -496,6 +497,31 @@ def test_fixed_seed_evaluation_plays_the_same_episodes_every_time(kind):
         FixedSeedVecEnv(make_vec_env(env_id, n_envs=2, env_kwargs=kwargs), seeds)
 
 
+def test_bootstrap_ci_on_hand_made_numbers():
+    # Constant values: the interval collapses onto them.
+    assert paired.bootstrap_ci([2.0, 2.0, 2.0]) == (2.0, 2.0)
+    # Two values: every resample's mean is 1, 1.5 or 2, with probabilities 1/4, 1/2, 1/4,
+    # so the 2.5% and 97.5% quantiles are the extremes.
+    assert paired.bootstrap_ci([1.0, 2.0]) == (1.0, 2.0)
+    # An 80% interval leaves out the extremes' 25% tails: it is the middle value.
+    assert paired.bootstrap_ci([1.0, 2.0], confidence=0.4) == (1.5, 1.5)
+    # Many samples: the percentile interval approaches mean +- 1.96 std / sqrt(n).
+    values = np.random.default_rng(1).normal(10.0, 2.0, 400)
+    low, high = paired.bootstrap_ci(values)
+    half = 1.96 * values.std(ddof=1) / math.sqrt(values.size)
+    assert low == pytest.approx(values.mean() - half, abs=0.05)
+    assert high == pytest.approx(values.mean() + half, abs=0.05)
+    # Reproducible, and undefined for one value.
+    assert paired.bootstrap_ci(values) == (low, high)
+    assert all(math.isnan(x) for x in paired.bootstrap_ci([3.0]))
+    with pytest.raises(ValueError, match="confidence"):
+        paired.bootstrap_ci([1.0, 2.0], confidence=95)
+    # Resampled means of several arrays draw the same episodes from each: a ratio stays paired.
+    reference = np.random.default_rng(2).lognormal(0.0, 1.0, 50)
+    top, bottom = paired.resampled_means(2.0 * reference, reference, samples=500)
+    np.testing.assert_allclose(top, 2.0 * bottom, rtol=1e-12)
+
+
 def test_paired_bootstrap_interval_covers_the_true_difference():
     from agents.compare import paired_difference
 
@@ -510,6 +536,9 @@ def test_paired_bootstrap_interval_covers_the_true_difference():
     assert 0.9 <= covered / runs <= 0.99
     with pytest.raises(ValueError, match="equal-length"):
         paired_difference([1.0, 2.0], [1.0])
+    # One episode gives no interval: flagged NaN, not a point.
+    one = paired_difference([1.0], [0.5])
+    assert one.mean == 0.5 and np.isnan(one.low) and np.isnan(one.high)
 
 
 def test_evaluation_prints_the_paired_comparison_with_scripted(tmp_path, capsys):

@@ -41,6 +41,7 @@ from tactile_gym.envs.task import TaskConfig
 from tactile_gym.estimation import LOSSES
 from tactile_gym.perception.gate import GateConfig
 from tactile_gym.presets import load_preset, preset_names
+from tactile_gym.registration import merge_keywords
 from tactile_gym.sensing import FingertipGeometry, SensorConfig
 from tactile_gym.sim import ObjectConfig, SkinConfig
 from tactile_gym.sim.config import FAMILIES
@@ -88,7 +89,10 @@ def env_fields(env_id: str) -> list[Field]:
         if f.name not in NESTED
     ]
     for section, cls in NESTED.items():
-        fields += [Field(section, f.name, _default(f)) for f in dataclasses.fields(cls)]
+        given = registered.get(section, {})  # gym.make merges a section into the registered one
+        fields += [
+            Field(section, f.name, given.get(f.name, _default(f))) for f in dataclasses.fields(cls)
+        ]
     if env_id in PRIMITIVE_IDS:
         fields += [Field(None, name, value) for name, value in primitive_keywords().items()]
     return fields
@@ -414,6 +418,53 @@ def test_every_field_refuses_wrong_types_and_absurd_sizes(env_id):
 def test_nested_keywords_take_only_dicts_of_their_fields(section, value):
     with pytest.raises(ValueError, match=section):
         gym.make(ENV_IDS[0], **{section: value})
+
+
+@pytest.mark.parametrize("mode", ["make", "sync", "vector_entry_point"])
+def test_a_nested_keyword_merges_into_the_ids_registered_section(mode):
+    """``gate={"dwell_budget": 20}`` on a v3 id changes that field and keeps the adaptive
+    press's other gate fields (Gymnasium alone would drop them), through ``gym.make`` and
+    both ways of ``gym.make_vec``; the registered keywords stay as they were."""
+    env_id = ENV_IDS[0]
+    registered = dict(gym.spec(env_id).kwargs["gate"])
+    assert {"edge_std_target", "steady_rule"} <= set(registered)
+    if mode == "make":
+        env = gym.make(env_id, gate={"dwell_budget": 20})
+        config = env.unwrapped.config
+    elif mode == "sync":
+        env = gym.make_vec(env_id, num_envs=1, vectorization_mode=mode, gate={"dwell_budget": 20})
+        config = env.envs[0].unwrapped.config
+    else:
+        env = gym.make_vec(env_id, num_envs=1, vectorization_mode=mode, gate={"dwell_budget": 20})
+        (config,) = env.call("config")
+    merged = {**registered, "dwell_budget": 20}
+    assert config.gate == merged
+    assert config.gate_config == GateConfig(**merged) != GateConfig(dwell_budget=20)
+    assert env.spec.kwargs["gate"] == merged  # the spec says what the env was made with
+    env.close()
+    assert gym.spec(env_id).kwargs["gate"] == registered
+
+
+def test_a_merged_nested_keyword_is_still_checked_by_name():
+    with pytest.raises(ValueError, match=r"unknown gate field\(s\) \['dwel_budget'\]"):
+        gym.make(ENV_IDS[0], gate={"dwel_budget": 20})
+    # A registered field set back to its class default: the merge cannot drop a key.
+    env = gym.make(ENV_IDS[0], gate={"steady_rule": GateConfig().steady_rule})
+    assert env.unwrapped.config.gate_config.steady_rule == GateConfig().steady_rule
+    env.close()
+
+
+def test_merge_keywords_merges_mappings_at_any_depth_and_replaces_the_rest():
+    base = {"gate": {"dwell": 8, "force_band": (4.5, 5.5)}, "a": {"b": {"c": 1, "d": 2}}, "n": 1}
+    changes = {"gate": {"dwell": 9}, "a": {"b": {"c": 3}}, "n": {"x": 1}, "skin": {"friction": 1}}
+    assert merge_keywords(base, changes) == {
+        "gate": {"dwell": 9, "force_band": (4.5, 5.5)},
+        "a": {"b": {"c": 3, "d": 2}},
+        "n": {"x": 1},
+        "skin": {"friction": 1},
+    }
+    assert base["gate"] == {"dwell": 8, "force_band": (4.5, 5.5)}  # neither argument changed
+    assert merge_keywords(base, {"gate": None})["gate"] is None
 
 
 def test_shipped_env_presets_make_the_3d_env():

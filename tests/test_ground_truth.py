@@ -8,7 +8,8 @@ is wrapped here; each read records the call stack, and a read fails the test whe
   ``..._error``, ``turn_by_hand``), or
 * any function on the stack belongs to the measurement path: the sensing, estimation and
   perception packages (touch sensing, tare, gate, measurement pipeline), the log replay, the
-  env's observation codec and skills, or a policy.
+  env's observation codec and skills, a policy, or the paper's finger (``agents.paper_finger``,
+  which Table I's protocols drive).
 
 Episodes of every id with the scripted, random and primitive policies run under the audit,
 and so does a reduced Table I reproduction.
@@ -51,6 +52,7 @@ FORBIDDEN = (
     "tactile_gym/envs/skills.py",
     "agents/scripted.py",
     "agents/joint_scripted.py",
+    "agents/paper_finger.py",
 )
 SCENE_FILE = "tactile_gym/sim/scene.py"
 

@@ -10,6 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from agents import paper_finger as pf
 from agents import reproduce_paper as rp
 from agents.paper_scene import HAND_HOLD_TORQUE
 from tactile_gym.sim import ObjectConfig, ProbeScene, SensorConfig, SkinConfig
@@ -49,20 +50,20 @@ def test_reduced_run_writes_table1(tmp_path):
 
 
 def _finger(scene, rng, sensor="realistic"):
-    return rp.Finger(scene, rp.log_header(scene, "nominal", sensor), rng)
+    return pf.Finger(scene, pf.log_header(scene, "nominal", sensor), rng)
 
 
 @pytest.mark.parametrize("offset", [-0.008, -0.003, 0.005])
 def test_edge_search_finds_the_edge_by_touch(scene, offset):
     rng = np.random.default_rng(0)
-    scene.reset(0.3, [0.0, 0.1, 0.1], rp.DOWN, rng=rng)
+    scene.reset(0.3, [0.0, 0.1, 0.1], pf.DOWN, rng=rng)
     point, direction, outward = _true_edge(scene)
     start = (point + 0.04 * direction + offset * outward)[:2]
     # The search is told a direction across the edge 10 degrees off.
     c, s = math.cos(0.17), math.sin(0.17)
     told = np.array([c * outward[0] - s * outward[1], s * outward[0] + c * outward[1]])
     finger = _finger(scene, rng)
-    pressed, _, presses = rp.find_edge(finger, start, told, NOMINAL)
+    pressed, _, presses = pf.find_edge(finger, start, told, NOMINAL)
     past = (pressed.centre - point) @ outward  # sphere centre past the edge line
     assert -0.001 < past < 0.002
     # The corrected point is the truncated patch's pressure centre, 0.9-3.1 mm inside the face
@@ -72,7 +73,7 @@ def test_edge_search_finds_the_edge_by_touch(scene, offset):
     assert presses <= 5
     # The pipeline's gate measured the press the search ended on, on the readings it held:
     # as many as its hold rule asked for.
-    rule = rp.GATE.hold_rule
+    rule = pf.GATE.hold_rule
     assert pressed.measurement is not None
     assert finger.pipeline.measurements == [pressed.measurement]
     assert rule.least <= pressed.readings <= rule.budget
@@ -85,7 +86,7 @@ def test_press_stops_on_the_noisy_reading():
     sensor = SensorConfig.ideal(force_bias=(0.0, 0.0, -1.5))
     config = ObjectConfig.scissors(holding_torque=HAND_HOLD_TORQUE)
     with ProbeScene(config, SkinConfig(), sensor) as biased:
-        biased.reset(0.0, [0.06, 0.105, 0.05], rp.DOWN)
+        biased.reset(0.0, [0.06, 0.105, 0.05], pf.DOWN)
         targets = []
         step = biased.control_step
 
@@ -96,9 +97,9 @@ def test_press_stops_on_the_noisy_reading():
         biased.control_step = recording_step
         xy = np.array([0.06, 0.105])  # the middle of the grip's top face
         finger = _finger(biased, np.random.default_rng(0), "ideal")
-        pressed = rp.press(finger, xy, NOMINAL, tare=False)
+        pressed = pf.press(finger, xy, NOMINAL, tare=False)
         assert pressed.touched
-        assert abs(np.linalg.norm(pressed.wrench[:3]) - 5.0) <= rp.PRESS.tolerance
+        assert abs(np.linalg.norm(pressed.wrench[:3]) - 5.0) <= pf.PRESS.tolerance
         assert 3.1 < np.linalg.norm(biased.true_wrench[:3]) < 3.9
         # A pure press: every target below the travel height is straight over xy.
         low = [t for t in targets if t[2] < targets[-1][2] + 0.001]
@@ -126,11 +127,11 @@ def test_sensor_choice_and_the_tare_before_each_press():
     config = ObjectConfig.scissors(holding_torque=HAND_HOLD_TORQUE)
     with ProbeScene(config, SkinConfig(), SensorConfig()) as scene:
         rng = np.random.default_rng(0)
-        scene.reset(0.0, [0.05, 0.105, 0.05], rp.DOWN, rng=rng)
+        scene.reset(0.0, [0.05, 0.105, 0.05], pf.DOWN, rng=rng)
         finger = _finger(scene, rng)
-        pressed = rp.press(finger, np.array([0.06, 0.105]), NOMINAL)
+        pressed = pf.press(finger, np.array([0.06, 0.105]), NOMINAL)
         assert pressed.touched and len(finger.pipeline.tares) == 1
-        assert abs(np.linalg.norm(scene.true_wrench[:3]) - 5.0) <= rp.PRESS.tolerance + 0.1
+        assert abs(np.linalg.norm(scene.true_wrench[:3]) - 5.0) <= pf.PRESS.tolerance + 0.1
         # The tare was taken in free air over the press, after moving there from 10 mm
         # away: the later the tare, the less the sensor drifts before the press is read.
         tared = [sample for sample in finger.samples if sample.tare]
@@ -171,7 +172,7 @@ def test_world_factors_change_the_world_not_the_sensing():
     world = rp.parse_world("skin_stiffness=2, noise=4 drift=0.5")
     assert world == {"skin_stiffness": 2.0, "noise": 4.0, "drift": 0.5}
     with rp.make_scene("nominal", world=world) as scene:
-        header = rp.log_header(scene, "nominal")
+        header = pf.log_header(scene, "nominal")
         configured = SensorConfig()
         assert scene.skin_config.normal_stiffness == 2 * SkinConfig().normal_stiffness
         assert scene.sensor_config.force_noise_std == 4 * configured.force_noise_std

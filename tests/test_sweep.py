@@ -15,27 +15,6 @@ from tactile_gym.presets import preset_names
 ENV_ID = tactile_gym.ENV_IDS[0]
 
 
-def test_bootstrap_ci_on_hand_made_numbers():
-    # Constant values: the interval collapses onto them.
-    assert aggregate.bootstrap_ci([2.0, 2.0, 2.0]) == (2.0, 2.0)
-    # Two values: every resample's mean is 1, 1.5 or 2, with probabilities 1/4, 1/2, 1/4,
-    # so the 2.5% and 97.5% quantiles are the extremes.
-    assert aggregate.bootstrap_ci([1.0, 2.0]) == (1.0, 2.0)
-    # An 80% interval leaves out the extremes' 25% tails: it is the middle value.
-    assert aggregate.bootstrap_ci([1.0, 2.0], confidence=0.4) == (1.5, 1.5)
-    # Many samples: the percentile interval approaches mean +- 1.96 std / sqrt(n).
-    values = np.random.default_rng(1).normal(10.0, 2.0, 400)
-    low, high = aggregate.bootstrap_ci(values)
-    half = 1.96 * values.std(ddof=1) / math.sqrt(values.size)
-    assert low == pytest.approx(values.mean() - half, abs=0.05)
-    assert high == pytest.approx(values.mean() + half, abs=0.05)
-    # Reproducible, and undefined for one value.
-    assert aggregate.bootstrap_ci(values) == (low, high)
-    assert all(math.isnan(x) for x in aggregate.bootstrap_ci([3.0]))
-    with pytest.raises(ValueError, match="confidence"):
-        aggregate.bootstrap_ci([1.0, 2.0], confidence=95)
-
-
 def test_describe_uses_sample_std_and_skips_missing_values():
     d = aggregate.describe([1.0, 2.0, 6.0, None, float("nan")])
     assert d["n"] == 3
