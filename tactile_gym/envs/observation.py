@@ -376,12 +376,12 @@ class PipelineParts:
     def __init__(self) -> None:
         self._kept: dict[str, tuple[tuple, np.ndarray]] = {}
 
-    def kept(self, key: str, sources: tuple, group: Callable[[], ObservationGroup]) -> np.ndarray:
-        """The array of ``key``: ``group().to_array()``, computed again only when one of
-        ``sources`` (the objects it is made of) is another object than last time."""
+    def kept(self, key: str, group: Callable[..., ObservationGroup], *sources: Any) -> np.ndarray:
+        """The array of ``key``: ``group(*sources).to_array()``, computed again only when one
+        of ``sources`` (the objects it is made of) is another object than last time."""
         kept = self._kept.get(key)
         if kept is None or any(a is not b for a, b in zip(kept[0], sources, strict=True)):
-            kept = (sources, group().to_array())
+            kept = (sources, group(*sources).to_array())
             self._kept[key] = kept
         return kept[1]
 
@@ -401,11 +401,9 @@ class PipelineParts:
             WrenchObs(pipeline.wrench[:3], pipeline.wrench[3:]),
         )
         parts = {group.key: group.to_array() for group in groups}
-        parts[EstimateObs.key] = self.kept(
-            EstimateObs.key, (estimate,), lambda: EstimateObs.from_estimate(estimate)
-        )
+        parts[EstimateObs.key] = self.kept(EstimateObs.key, EstimateObs.from_estimate, estimate)
         parts[LastMeasurementObs.key] = self.kept(
-            LastMeasurementObs.key, (last,), lambda: LastMeasurementObs.from_measurement(last)
+            LastMeasurementObs.key, LastMeasurementObs.from_measurement, last
         )
         return parts
 
@@ -417,10 +415,12 @@ class JointPipelineParts(PipelineParts):
 
     def __call__(self, pipeline: Any, position, quaternion, time_left: float) -> dict:
         parts = super().__call__(pipeline, position, quaternion, time_left)
+        # The most likely model is read off the joint-type estimate and the axis estimate.
         parts[EstimateObs.key] = self.kept(
             "most_likely_model",
-            (pipeline.joint_estimate, pipeline.estimate),
-            lambda: most_likely_model(pipeline),
+            lambda *_: most_likely_model(pipeline),
+            pipeline.joint_estimate,
+            pipeline.estimate,
         )
         parts[JointTypeObs.key] = JointTypeObs.from_pipeline(pipeline).to_array()
         return parts
