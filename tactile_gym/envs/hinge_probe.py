@@ -13,7 +13,6 @@ task (``task.py``: reward and termination from the ground truth) and the observa
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -22,7 +21,7 @@ from gymnasium import spaces
 
 from tactile_gym.envs.config import HingeProbeConfig
 from tactile_gym.envs.controller import DeltaPoseController
-from tactile_gym.envs.observation import OBSERVATION, ObservationCodec, pipeline_parts
+from tactile_gym.envs.observation import OBSERVATION, ObservationCodec, PipelineParts
 from tactile_gym.envs.render import RenderOptions, draw_frame
 from tactile_gym.envs.step_guard import (
     EnvSpecOwnHorizon,
@@ -234,7 +233,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
     config_class: ClassVar[type[HingeProbeConfig]] = HingeProbeConfig
     task_class: ClassVar[type[AxisEstimationTask]] = AxisEstimationTask
     observation_codec: ClassVar[ObservationCodec] = OBSERVATION
-    observation_parts: ClassVar[Callable[..., dict]] = staticmethod(pipeline_parts)
+    observation_parts: ClassVar[type[PipelineParts]] = PipelineParts
 
     def __init__(
         self,
@@ -259,6 +258,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
         self.pipeline = cfg.pipeline(self.geometry)
         self.task = self.task_class(cfg.task_config)
         self.codec = self.observation_codec
+        self._parts = self.observation_parts()
         self.dict_observation_space = self.codec.dict_space
         self.observation_space = self.codec.space(cfg.observation_mode)
         self.action_space = spaces.Box(
@@ -383,7 +383,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
     def _observation(self):
         """The observation of the current state (reads state only, changes nothing)."""
         scene = self._scene
-        parts = self.observation_parts(
+        parts = self._parts(
             self.pipeline,
             scene.fingertip_position,
             scene.fingertip_orientation,
@@ -410,6 +410,7 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
         the reset, no step)."""
         position_error, angle_error = self._true_errors()
         pin, _ = self._scene.true_axis
+        position = self._scene.fingertip_position
         estimate = self.pipeline.estimate
         return StepFacts(
             position_error=position_error,
@@ -417,8 +418,8 @@ class HingeProbeEnv(EnvSpecOwnHorizon, gym.Env):
             max_force=0.0 if step_info is None else float(step_info.max_force),
             force_limit=float(self._scene.force_limit),
             shell_contact=step_info is not None and bool(step_info.shell_contact),
-            hinge_distance=norm(self._scene.fingertip_position - pin),
-            start_distance=norm(self._scene.fingertip_position - self._start_position),
+            hinge_distance=norm(position - pin),
+            start_distance=norm(position - self._start_position),
             action=action,
             measurements=len(self.pipeline.measurements),
             position_std=estimate.position_std,

@@ -18,7 +18,7 @@ import numpy as np
 from tactile_gym.envs.hinge_probe import HingeProbeEnv
 from tactile_gym.envs.joint_config import TYPE_OF_JOINT, JointProbeConfig
 from tactile_gym.envs.joint_task import JointStepFacts, JointTypeTask
-from tactile_gym.envs.observation import JOINT_OBSERVATION, joint_pipeline_parts
+from tactile_gym.envs.observation import JOINT_OBSERVATION, JointPipelineParts
 from tactile_gym.envs.vector import HingeProbeVectorEnv
 from tactile_gym.estimation import JointTypeEstimate, axis_error, direction_error
 
@@ -143,7 +143,7 @@ class JointProbeEnv(HingeProbeEnv):
     config_class = JointProbeConfig
     task_class = JointTypeTask
     observation_codec = JOINT_OBSERVATION
-    observation_parts = staticmethod(joint_pipeline_parts)
+    observation_parts = JointPipelineParts
 
     @property
     def joint_estimate(self) -> JointTypeEstimate:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -36,15 +36,15 @@ __all__ = [
     "ContactObs",
     "EstimateObs",
     "FingertipPoseObs",
+    "JointPipelineParts",
     "JointTypeObs",
     "LastMeasurementObs",
     "ObservationCodec",
     "ObservationGroup",
+    "PipelineParts",
     "PrimitiveObs",
     "ProgressObs",
     "WrenchObs",
-    "joint_pipeline_parts",
-    "pipeline_parts",
 ]
 
 #: Bounds of the observation entries (observations are clipped to them).
@@ -103,13 +103,26 @@ class ObservationGroup:
         return np.array(values, dtype=float)
 
     @classmethod
+    @functools.cache
+    def _spans(cls) -> tuple[tuple[str, int, int], ...]:
+        """The entries' names with their start and end in the group's array."""
+        spans, start = [], 0
+        for name, n in cls.entries():
+            spans.append((name, start, start + n))
+            start += n
+        return tuple(spans)
+
+    @classmethod
     def from_array(cls, values: np.ndarray) -> ObservationGroup:
         """The group of an observation's array for its key."""
         values = np.asarray(values, dtype=float)
-        named, start = {}, 0
-        for name, n in cls.entries():
-            named[name] = float(values[start]) if n == 1 else values[start : start + n]
-            start += n
+        # Scalars from one list of Python floats: a float() per indexed entry costs more
+        # (the skills read several groups every control step).
+        floats = values.tolist()
+        named = {
+            name: floats[start] if end - start == 1 else values[start:end]
+            for name, start, end in cls._spans()
+        }
         return cls(**named)
 
     @classmethod
@@ -349,37 +362,68 @@ class ObservationCodec:
         return {key: obs[s] for key, s in self._slices.items()}
 
 
-def pipeline_parts(pipeline: Any, position, quaternion, time_left: float) -> dict:
+class PipelineParts:
     """The arrays of every key of the ``HingeProbe`` observation (``to_array``, to encode):
     the state of a measurement pipeline (``tactile_gym.perception.MeasurementPipeline``: the
     last reading and its touch, the estimate, the measurements) and the fingertip's pose
-    (world, m; quaternion x y z w), with the fraction of the episode left."""
-    last = pipeline.last
-    groups = (
-        ContactObs.from_touch(pipeline.touch),
-        EstimateObs.from_estimate(pipeline.estimate),
-        FingertipPoseObs(position, quaternion),
-        LastMeasurementObs.from_measurement(last),
-        ProgressObs(
-            span=pipeline.span,
-            directions=pipeline.directions,
-            last_edge_std=NO_EDGE if last is None else last.edge_std,
-            measurements=len(pipeline.measurements),
-            time_left=time_left,
-        ),
-        WrenchObs(pipeline.wrench[:3], pipeline.wrench[3:]),
-    )
-    return {group.key: group.to_array() for group in groups}
+    (world, m; quaternion x y z w), with the fraction of the episode left.
+
+    One per env: the arrays of what changes only with an accepted measurement (the estimate,
+    the last measurement) are kept until the pipeline holds another estimate or measurement
+    object (they are frozen, so the same object has the same entries).
+    """
+
+    def __init__(self) -> None:
+        self._kept: dict[str, tuple[tuple, np.ndarray]] = {}
+
+    def kept(self, key: str, group: Callable[..., ObservationGroup], *sources: Any) -> np.ndarray:
+        """The array of ``key``: ``group(*sources).to_array()``, computed again only when one
+        of ``sources`` (the objects it is made of) is another object than last time."""
+        kept = self._kept.get(key)
+        if kept is None or any(a is not b for a, b in zip(kept[0], sources, strict=True)):
+            kept = (sources, group(*sources).to_array())
+            self._kept[key] = kept
+        return kept[1]
+
+    def __call__(self, pipeline: Any, position, quaternion, time_left: float) -> dict:
+        last = pipeline.last
+        estimate = pipeline.estimate
+        groups = (
+            ContactObs.from_touch(pipeline.touch),
+            FingertipPoseObs(position, quaternion),
+            ProgressObs(
+                span=pipeline.span,
+                directions=pipeline.directions,
+                last_edge_std=NO_EDGE if last is None else last.edge_std,
+                measurements=len(pipeline.measurements),
+                time_left=time_left,
+            ),
+            WrenchObs(pipeline.wrench[:3], pipeline.wrench[3:]),
+        )
+        parts = {group.key: group.to_array() for group in groups}
+        parts[EstimateObs.key] = self.kept(EstimateObs.key, EstimateObs.from_estimate, estimate)
+        parts[LastMeasurementObs.key] = self.kept(
+            LastMeasurementObs.key, LastMeasurementObs.from_measurement, last
+        )
+        return parts
 
 
-def joint_pipeline_parts(pipeline: Any, position, quaternion, time_left: float) -> dict:
-    """The arrays of every key of the ``JointProbe`` observation: ``pipeline_parts`` of a
+class JointPipelineParts(PipelineParts):
+    """The arrays of every key of the ``JointProbe`` observation: ``PipelineParts`` of a
     ``JointPipeline``, its ``estimate`` the most likely model's (``most_likely_model``), and
     the joint-type estimate (``JointTypeObs``)."""
-    parts = pipeline_parts(pipeline, position, quaternion, time_left)
-    parts[EstimateObs.key] = most_likely_model(pipeline).to_array()
-    parts[JointTypeObs.key] = JointTypeObs.from_pipeline(pipeline).to_array()
-    return parts
+
+    def __call__(self, pipeline: Any, position, quaternion, time_left: float) -> dict:
+        parts = super().__call__(pipeline, position, quaternion, time_left)
+        # The most likely model is read off the joint-type estimate and the axis estimate.
+        parts[EstimateObs.key] = self.kept(
+            "most_likely_model",
+            lambda *_: most_likely_model(pipeline),
+            pipeline.joint_estimate,
+            pipeline.estimate,
+        )
+        parts[JointTypeObs.key] = JointTypeObs.from_pipeline(pipeline).to_array()
+        return parts
 
 
 #: The codec of the ``HingeProbe`` ids (the primitive ids add ``PrimitiveObs``).

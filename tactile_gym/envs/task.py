@@ -34,6 +34,7 @@ errors for evaluation, and ``predicted_error`` (U) under either source.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -165,7 +166,7 @@ class AxisEstimationTask:
     def combined_error(self, position_error: float, angle_error: float) -> float:
         """E = position error + L * angle error, capped at E_max (m)."""
         error = position_error + self.config.error_angle_scale * angle_error
-        if not np.isfinite(error):
+        if not math.isfinite(error):
             return self.config.error_cap
         return float(min(error, self.config.error_cap))
 

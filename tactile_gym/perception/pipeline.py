@@ -296,8 +296,16 @@ class MeasurementPipeline:
         """The stream fault a sample shows (step 1), or ""; a fault spoils the touch."""
         last, limits = self._last, self.limits
         fault, why = "", ""
-        values = (sample.time, *np.ravel(sample.wrench), *np.ravel(sample.position))
-        if not (all(math.isfinite(v) for v in values) and np.isfinite(sample.rotation).all()):
+        # One pass of math.isfinite over Python floats: NumPy's per-call cost on arrays this
+        # small is most of a check made every sample.
+        position = np.asarray(sample.position, dtype=float)
+        values = [
+            sample.time,
+            *np.ravel(sample.wrench).tolist(),
+            *position.ravel().tolist(),
+            *np.ravel(sample.rotation).tolist(),
+        ]
+        if not all(map(math.isfinite, values)):
             fault, why = "non_finite", "a reading or a pose that is not finite"
         elif last is not None:
             gap = sample.time - last.time
@@ -308,7 +316,7 @@ class MeasurementPipeline:
             elif gap > limits.max_gap * limits.period:
                 fault, why = "dropped_sample", f"{gap:.3g} s since the last sample"
             else:
-                jump = norm(np.asarray(sample.position) - last.position)
+                jump = norm(position - last.position)
                 turn = _angle_between(sample.rotation, last.rotation)
                 if jump > limits.max_speed * gap or turn > limits.max_angular_speed * gap:
                     fault = "pose_jump"

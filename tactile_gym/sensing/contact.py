@@ -42,9 +42,12 @@ from tactile_gym.sensing.sensor import TOUCH_FORCE, SensorConfig
 from tactile_gym.validation import check_number
 from tactile_gym.vec3 import dot
 
-__all__ = ["ContactEstimate", "estimate_contact"]
+__all__ = ["MIN_TILT_SNR", "ContactEstimate", "checked_contact", "estimate_contact"]
 
 _DEFAULT_GEOMETRY = FingertipGeometry()
+#: The least tilt signal-to-noise ratio of an observable edge, standard deviations
+#: (``estimate_contact``'s ``min_tilt_snr``).
+MIN_TILT_SNR = 3.0
 _NAN3 = (math.nan, math.nan, math.nan)
 _NAN_MATRIX = np.full((3, 3), np.nan)
 
@@ -160,7 +163,7 @@ def estimate_contact(
     skin_stiffness: float | None = None,
     contact_shape: str = "plane",
     previous_edge=None,
-    min_tilt_snr: float = 3.0,
+    min_tilt_snr: float = MIN_TILT_SNR,
 ) -> ContactEstimate:
     """Contact point, normal, friction moment and edge direction from one wrench.
 
@@ -256,8 +259,30 @@ def estimate_contact(
             raise ValueError(
                 f"skin_stiffness must be a finite number > 0 N/m^3 or None, got {skin_stiffness!r}"
             )
+        skin_stiffness = k_n
     prev = None if previous_edge is None else _vec3(previous_edge, "previous_edge")
+    return checked_contact(
+        f, m, geometry, model, threshold, sigma_f, sigma_m, skin_stiffness, contact_shape, prev,
+        min_snr,
+    )  # fmt: skip
 
+
+def checked_contact(
+    f: tuple[float, float, float],
+    m: tuple[float, float, float],
+    geometry: FingertipGeometry,
+    model: str,
+    threshold: float,
+    sigma_f: float,
+    sigma_m: float,
+    skin_stiffness: float | None,
+    contact_shape: str,
+    prev: tuple[float, float, float] | None,
+    min_snr: float,
+) -> ContactEstimate:
+    """``estimate_contact`` of arguments already checked: finite float triples and parameters
+    in their ranges (the arguments of ``estimate_contact`` in its order, by position). The
+    per-reading path of a caller that checked its parameters once (``TouchSensor``)."""
     fnorm = math.sqrt(dot(f, f))
     if fnorm < threshold or fnorm == 0.0:
         return ContactEstimate.invalid(f, f"force below threshold ({fnorm:.4g} N < {threshold} N)")
@@ -272,7 +297,7 @@ def estimate_contact(
     )
     corrected, delta = _NAN3, math.nan
     if skin_stiffness is not None:
-        corrected, delta = indentation_correction(f, r, n, k_n, geometry, contact_shape)
+        corrected, delta = indentation_correction(f, r, n, skin_stiffness, geometry, contact_shape)
     return ContactEstimate(
         valid=True,
         reason="",

@@ -15,10 +15,10 @@ gate, the paper's Table I protocol and the regime map alike (``docs/design.md`` 
   the predicted edge error of the mean (:func:`predicted_edge_std`) reaches a target,
   within a budget. The press, the measurement gate and the env's skills use it alike.
 * :class:`TouchSensor` turns a wrench, the mean of ``readings`` readings, into a
-  :class:`Touch` in the world frame: ``estimate_contact`` with the fingertip's geometry, the
-  sensor's noise divided by sqrt(``readings``), the skin's stiffness and the ``"plane"``
-  contact shape (``docs/design.md`` 4.5), moved into the world frame with the fingertip's
-  pose (which the robot knows).
+  :class:`Touch` in the world frame: ``estimate_contact`` (its soft model) with the
+  fingertip's geometry, the sensor's noise divided by sqrt(``readings``), the skin's
+  stiffness and the ``"plane"`` contact shape (``docs/design.md`` 4.5), moved into the world
+  frame with the fingertip's pose (which the robot knows).
 * ``TOUCH_FORCE`` (``tactile_gym.sensing.sensor``) is the one threshold of a touch.
 
 Edge orientation. ``estimate_contact`` returns the edge as a line. A :class:`Touch` orients it
@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile_gym.sensing.contact import estimate_contact
+from tactile_gym.sensing.contact import MIN_TILT_SNR, checked_contact
 from tactile_gym.sensing.geometry import FingertipGeometry
 from tactile_gym.sensing.sensor import TOUCH_FORCE, SensorConfig
 from tactile_gym.validation import check_bool, check_int, check_number
@@ -93,7 +93,8 @@ class Touch:
     @property
     def observable(self) -> bool:
         """Whether the edge direction is defined."""
-        return bool(np.isfinite(self.edge).all())
+        # On Python floats: the env, its observation and the gate ask every control step.
+        return all(map(math.isfinite, self.edge.tolist()))
 
 
 class TouchSensor:
@@ -125,15 +126,24 @@ class TouchSensor:
                 a float where the mean is worth a fractional count
                 (:func:`effective_readings`).
         """
+        values = np.asarray(wrench, dtype=float).tolist()
+        if len(values) != 6 or not all(map(math.isfinite, values)):
+            raise ValueError(f"wrench must be 6 finite numbers, got {values}")
         scale = 1.0 / math.sqrt(readings)
-        est = estimate_contact(
-            wrench[:3],
-            wrench[3:],
+        # The checks of ``estimate_contact`` are done: the wrench here, the rest once in
+        # ``__init__`` (a reading is sensed every control step).
+        est = checked_contact(
+            tuple(values[:3]),
+            tuple(values[3:]),
             self.geometry,
-            force_noise_std=self.sensor.force_noise_std * scale,
-            moment_noise_std=self.sensor.moment_noise_std * scale,
-            skin_stiffness=self.skin_stiffness,
-            contact_shape="plane",
+            "soft",
+            TOUCH_FORCE,
+            self.sensor.force_noise_std * scale,
+            self.sensor.moment_noise_std * scale,
+            self.skin_stiffness,
+            "plane",
+            None,
+            MIN_TILT_SNR,
         )
         force = rotation @ est.force
         if not est.valid:
