@@ -1,6 +1,6 @@
 """The skin's kernels on degenerate input: no candidates, every node in contact, a pose with a
 NaN. They return a flagged result or raise a clear error, and never index past an array: the
-debug build (``TACTILE_GYM_BOUNDSCHECK=1``, ``tactile_gym/sim/_jit.py``) checks every index,
+debug build (``TACTILE_GYM_BOUNDSCHECK=1``, ``tactile_gym/_jit.py``) checks every index,
 and a subprocess runs these cases under it."""
 
 from __future__ import annotations
@@ -122,7 +122,8 @@ def test_the_v3_step_refuses_a_nan_joint_state():
 _DEBUG_RUN = textwrap.dedent(
     """
     import numpy as np
-    from tactile_gym.sim import ObjectConfig, ProbeScene, _jit, _kernels
+    from tactile_gym import _jit
+    from tactile_gym.sim import ObjectConfig, ProbeScene, _kernels
 
     assert _jit.BOUNDSCHECK
     # The degenerate cases of this file and a press in both steps, all index-checked.

@@ -40,7 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile_gym.sensing.contact import MIN_TILT_SNR, checked_contact
+from tactile_gym.sensing import contact
+from tactile_gym.sensing.contact import MIN_TILT_SNR, contact_core, contact_parameters
 from tactile_gym.sensing.geometry import FingertipGeometry
 from tactile_gym.sensing.sensor import TOUCH_FORCE, SensorConfig
 from tactile_gym.validation import check_bool, check_int, check_number
@@ -112,6 +113,18 @@ class TouchSensor:
         self.geometry = geometry
         self.sensor = sensor
         self.skin_stiffness = check_number("skin_stiffness", skin_stiffness, 0.0, low_open=True)
+        # ``estimate_contact``'s soft model with this fingertip, noise and skin, checked here
+        # once: a reading is sensed every control step.
+        self._parameters = contact_parameters(
+            geometry,
+            "soft",
+            TOUCH_FORCE,
+            check_number("force_noise_std", sensor.force_noise_std, 0.0),
+            check_number("moment_noise_std", sensor.moment_noise_std, 0.0),
+            self.skin_stiffness,
+            "plane",
+            MIN_TILT_SNR,
+        )
 
     def sense(
         self, wrench: np.ndarray, rotation: np.ndarray, position: np.ndarray, readings: float = 1
@@ -126,48 +139,54 @@ class TouchSensor:
                 a float where the mean is worth a fractional count
                 (:func:`effective_readings`).
         """
-        values = np.asarray(wrench, dtype=float).tolist()
-        if len(values) != 6 or not all(map(math.isfinite, values)):
+        w = self._checked(wrench)
+        out = contact_core(w, self._parameters, 1.0 / math.sqrt(readings))
+        return self._sensed(out, rotation @ w[:3], rotation, position)
+
+    def edge_std(self, wrench: np.ndarray, readings: float = 1) -> float:
+        """The predicted RMS edge error of ``sense``'s touch, rad, without its world frame."""
+        out = contact_core(self._checked(wrench), self._parameters, 1.0 / math.sqrt(readings))
+        if out[contact.STATUS] != contact.FOUND:
+            return contact.EDGE_STD_UNOBSERVABLE
+        return float(out[contact.EDGE_STD])
+
+    @staticmethod
+    def _checked(wrench) -> np.ndarray:
+        """The wrench as a (6,) float array, or a ValueError if it is not 6 finite numbers."""
+        w = np.ascontiguousarray(wrench, dtype=float)  # the kernel's one layout
+        values = w.tolist()
+        if w.shape != (6,) or not all(map(math.isfinite, values)):
             raise ValueError(f"wrench must be 6 finite numbers, got {values}")
-        scale = 1.0 / math.sqrt(readings)
-        # The checks of ``estimate_contact`` are done: the wrench here, the rest once in
-        # ``__init__`` (a reading is sensed every control step).
-        est = checked_contact(
-            tuple(values[:3]),
-            tuple(values[3:]),
-            self.geometry,
-            "soft",
-            TOUCH_FORCE,
-            self.sensor.force_noise_std * scale,
-            self.sensor.moment_noise_std * scale,
-            self.skin_stiffness,
-            "plane",
-            None,
-            MIN_TILT_SNR,
-        )
-        force = rotation @ est.force
-        if not est.valid:
-            return Touch(False, force, _NAN3, _NAN3, _NAN3, est.edge_std, _NAN33, np.nan)
-        normal = rotation @ est.normal
+        return w
+
+    @staticmethod
+    def _sensed(out: np.ndarray, force: np.ndarray, rotation, position) -> Touch:
+        """The Touch of ``contact_core``'s output, in the world frame of the pose."""
+        values = out.tolist()
+        if values[contact.STATUS] != contact.FOUND:
+            return Touch(
+                False, force, _NAN3, _NAN3, _NAN3, contact.EDGE_STD_UNOBSERVABLE, _NAN33, np.nan
+            )
+        normal = rotation @ out[contact.NORMAL]
         edge = _NAN3
         edge_cov = _NAN33
-        if est.edge_observable:
-            # Sign of e . (n x f), on floats (np.linalg.det of the three cost more than the
-            # rest of this method). An observable edge has |n x f| = |f_t| far above the
-            # rounding, so the sign is the determinant's.
-            edge = rotation @ est.edge_direction
+        if values[contact.OBSERVABLE]:
+            # Signed physically: e . (n x f) > 0, on floats (np.linalg.det of the three cost
+            # more than the rest of this method). An observable edge has |n x f| = |f_t| far
+            # above the rounding, so the sign is the determinant's.
+            edge = rotation @ out[contact.EDGE]
             if dot(edge.tolist(), cross(normal.tolist(), force.tolist())) < 0.0:
                 edge = -edge
-            edge_cov = rotation @ est.edge_cov @ rotation.T
+            edge_cov = rotation @ out[contact.EDGE_COV].reshape(3, 3) @ rotation.T
         return Touch(
             valid=True,
             force=force,
-            point=rotation @ est.corrected_point + position,
+            point=rotation @ out[contact.CORRECTED] + position,
             normal=normal,
             edge=edge,
-            edge_std=est.edge_std,
+            edge_std=values[contact.EDGE_STD],
             edge_cov=edge_cov,
-            tilt=est.tilt,
+            tilt=values[contact.TILT],
         )
 
 
@@ -214,7 +233,7 @@ def predicted_edge_std(sensor: TouchSensor, readings: np.ndarray) -> float:
     """
     readings = np.asarray(readings, dtype=float).reshape(-1, 6)
     count = effective_readings(sensor.sensor, readings)
-    return sensor.sense(readings.mean(axis=0), _EYE, _ZERO3, readings=count).edge_std
+    return sensor.edge_std(readings.mean(axis=0), readings=count)
 
 
 @dataclass(frozen=True)
