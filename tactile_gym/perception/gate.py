@@ -376,6 +376,9 @@ class MeasurementGate:
         self.config = config
         self.sensor = sensor
         self._hold = config.hold_rule
+        # The still window's readings, in order: rows of one buffer, so that the hold rule
+        # reads them as one (n, 6) array every step without stacking them anew.
+        self._held = np.empty((self._hold.most, 6))
         #: Expected distance of the probed edge from the axis (mean, std), m, or None.
         self.edge_distance: tuple[float, float] | None = None
         self._radius = sensor.geometry.outer_radius
@@ -387,7 +390,7 @@ class MeasurementGate:
         self._touch_pose: tuple[np.ndarray, np.ndarray] | None = None
         self._pose: tuple[np.ndarray, np.ndarray] | None = None
         self._pressed = False  # a press measurement was taken during this touch
-        self._window: list[np.ndarray] = []
+        self._count = 0  # readings in the still window
         # The skin's displacement at the contact, step by step since the first touch.
         self._patch: list[np.ndarray] = []
         #: Why the last press or same-edge test refused a measurement ("" after an accept).
@@ -401,7 +404,7 @@ class MeasurementGate:
         """End the touch in progress, as when the skin reads free: the next contact starts a
         new touch (a robot's "lift" event)."""
         self._touch_pose, self._pressed = None, False
-        self._window = []
+        self._count = 0
 
     def interrupt(self, rule: str, why: str) -> None:
         """Spoil the touch in progress after a fault in the stream of readings (a dropped
@@ -411,7 +414,7 @@ class MeasurementGate:
         next reading is not still."""
         if self._touch_pose is not None and not self._pressed:
             self._pressed = True
-            self._window = []
+            self._count = 0
             self._reject(rule, why)
         self._pose = None
 
@@ -443,14 +446,15 @@ class MeasurementGate:
         still = moved <= cfg.still_translation and turned <= cfg.still_rotation
         out = []
         if still and in_band and not self._pressed:
-            self._window.append(np.asarray(wrench, dtype=float))
-            if self._hold.enough(self.sensor, self._window):
+            self._held[self._count] = wrench
+            self._count += 1
+            if self._hold.enough(self.sensor, self._held[: self._count]):
                 self._pressed = True
                 measurement = self._press(rotation, position)
                 if measurement is not None:
                     out.append(measurement)
         else:
-            self._window = []
+            self._count = 0
         return out
 
     # ------------------------------------------------------------------ press
@@ -469,7 +473,7 @@ class MeasurementGate:
 
     def _press(self, rotation: np.ndarray, position: np.ndarray) -> Measurement | None:
         cfg = self.config
-        window = np.asarray(self._window)
+        window = self._held[: self._count]
         magnitudes = np.linalg.norm(window[:, :3], axis=1)
         if cfg.steady_rule == "spread":
             spread = float(np.ptp(magnitudes))

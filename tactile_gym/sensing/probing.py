@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tactile_gym._jit import kernel
 from tactile_gym.sensing import contact
 from tactile_gym.sensing.contact import MIN_TILT_SNR, contact_core, contact_parameters
 from tactile_gym.sensing.geometry import FingertipGeometry
@@ -62,8 +63,6 @@ __all__ = [
 
 _NAN3 = np.full(3, np.nan)
 _NAN33 = np.full((3, 3), np.nan)
-_EYE = np.eye(3)
-_ZERO3 = np.zeros(3)
 
 
 @dataclass(frozen=True)
@@ -143,13 +142,6 @@ class TouchSensor:
         out = contact_core(w, self._parameters, 1.0 / math.sqrt(readings))
         return self._sensed(out, rotation @ w[:3], rotation, position)
 
-    def edge_std(self, wrench: np.ndarray, readings: float = 1) -> float:
-        """The predicted RMS edge error of ``sense``'s touch, rad, without its world frame."""
-        out = contact_core(self._checked(wrench), self._parameters, 1.0 / math.sqrt(readings))
-        if out[contact.STATUS] != contact.FOUND:
-            return contact.EDGE_STD_UNOBSERVABLE
-        return float(out[contact.EDGE_STD])
-
     @staticmethod
     def _checked(wrench) -> np.ndarray:
         """The wrench as a (6,) float array, or a ValueError if it is not 6 finite numbers."""
@@ -205,19 +197,8 @@ def effective_readings(sensor: SensorConfig, readings: np.ndarray) -> float:
     Returns:
         n divided by max(1, measured / configured variance), readings.
     """
-    readings = np.asarray(readings, dtype=float).reshape(-1, 6)
-    n = len(readings)
-    if n < 2:
-        return float(n)
-    variance = readings.var(axis=0, ddof=1)
-    ratio = 1.0
-    for part, std in (
-        (variance[:3], sensor.force_noise_std),
-        (variance[3:], sensor.moment_noise_std),
-    ):
-        if std > 0.0:
-            ratio = max(ratio, float(part.mean()) / (std * std))
-    return n / ratio
+    readings = _checked_readings(readings)
+    return _effective_readings(readings, sensor.force_noise_std, sensor.moment_noise_std)
 
 
 def predicted_edge_std(sensor: TouchSensor, readings: np.ndarray) -> float:
@@ -225,15 +206,74 @@ def predicted_edge_std(sensor: TouchSensor, readings: np.ndarray) -> float:
 
     ``TouchSensor.sense`` of their mean, read as the mean of :func:`effective_readings`
     readings: the configured noise over sqrt(n), or the noise the readings show where it is
-    larger (pi/2 when the mean shows no edge).
+    larger (pi/2 when the mean shows no edge). One compiled call (``_hold_edge_std``): the
+    measurement gate asks it on every still reading of a press.
 
     Args:
         sensor: the touch sensing (its configured noise, fingertip and skin).
         readings: (n, 6) wrenches in the sensor frame, n >= 1.
     """
-    readings = np.asarray(readings, dtype=float).reshape(-1, 6)
-    count = effective_readings(sensor.sensor, readings)
-    return sensor.edge_std(readings.mean(axis=0), readings=count)
+    readings = _checked_readings(readings)
+    if len(readings) == 0:
+        raise ValueError("readings must hold at least one wrench, got none")
+    return _hold_edge_std(readings, sensor._parameters)
+
+
+def _checked_readings(readings) -> np.ndarray:
+    """(n, 6) finite wrenches as a C-ordered float array (the kernels' one layout)."""
+    r = np.ascontiguousarray(np.asarray(readings, dtype=float).reshape(-1, 6))
+    if not np.isfinite(r).all():
+        raise ValueError(f"readings must be finite, got {r.tolist()}")
+    return r
+
+
+@kernel()
+def _column_sums(readings):
+    """The sums down the columns of (n, 6) readings (n >= 1), as NumPy's ``sum(axis=0)``
+    adds them: row after row."""
+    total = readings[0].copy()
+    for i in range(1, readings.shape[0]):
+        for j in range(6):
+            total[j] = total[j] + readings[i, j]
+    return total
+
+
+@kernel()
+def _effective_readings(readings, force_std, moment_std):
+    """``effective_readings`` of checked (n, 6) readings, rounding as NumPy's
+    ``var(axis=0, ddof=1)`` and ``mean`` do (sums in order, then one division)."""
+    n = readings.shape[0]
+    if n < 2:
+        return float(n)
+    mean = _column_sums(readings) / n
+    variance = np.empty(6)
+    for j in range(6):
+        d = readings[0, j] - mean[j]
+        total = d * d
+        for i in range(1, n):
+            d = readings[i, j] - mean[j]
+            total = total + d * d
+        variance[j] = total / (n - 1)
+    ratio = 1.0
+    for first, std in ((0, force_std), (3, moment_std)):
+        if std > 0.0:
+            part = ((variance[first] + variance[first + 1]) + variance[first + 2]) / 3
+            r = part / (std * std)
+            ratio = r if r > ratio else ratio  # max(ratio, r), as Python takes it
+    return n / ratio
+
+
+@kernel()
+def _hold_edge_std(readings, parameters):
+    """``predicted_edge_std`` of checked (n, 6) readings (n >= 1) and ``TouchSensor``'s
+    ``contact_parameters``."""
+    count = _effective_readings(readings, parameters[4], parameters[5])
+    out = contact_core(
+        _column_sums(readings) / readings.shape[0], parameters, 1.0 / math.sqrt(count)
+    )
+    if out[contact.STATUS] != contact.FOUND:
+        return contact.EDGE_STD_UNOBSERVABLE
+    return out[contact.EDGE_STD]
 
 
 @dataclass(frozen=True)
