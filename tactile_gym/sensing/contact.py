@@ -52,7 +52,6 @@ from tactile_gym.vec3 import dot_kernel
 __all__ = [
     "MIN_TILT_SNR",
     "ContactEstimate",
-    "checked_contact",
     "contact_core",
     "contact_parameters",
     "estimate_contact",
@@ -275,10 +274,35 @@ def estimate_contact(
             )
         skin_stiffness = k_n
     prev = None if previous_edge is None else _vec3(previous_edge, "previous_edge")
-    return checked_contact(
-        f, m, geometry, model, threshold, sigma_f, sigma_m, skin_stiffness, contact_shape, prev,
-        min_snr,
-    )  # fmt: skip
+    parameters = contact_parameters(
+        geometry, model, threshold, sigma_f, sigma_m, skin_stiffness, contact_shape, min_snr
+    )
+    out = contact_core(np.array(f + m), parameters, 1.0)
+    values = out.tolist()
+    if values[STATUS] != FOUND:
+        return ContactEstimate.invalid(f, _invalid_reason(values, threshold))
+    edge = out[EDGE]
+    if values[OBSERVABLE]:
+        edge = orient_like(edge, [] if prev is None else [prev])
+    return ContactEstimate(
+        valid=True,
+        reason="",
+        point=out[POINT],
+        normal=out[NORMAL],
+        force=np.array(f),
+        normal_moment=out[NORMAL_MOMENT],
+        tangential_moment=out[TANGENTIAL_MOMENT],
+        edge_direction=edge,
+        edge_std=values[EDGE_STD],
+        edge_cov=out[EDGE_COV].reshape(3, 3),
+        corrected_point=out[CORRECTED],
+        indentation=values[INDENTATION],
+        on_surface=bool(values[ON_SURFACE]),
+        tilt=values[TILT],
+        edge_observable=bool(values[OBSERVABLE]),
+        tilt_snr=values[TILT_SNR],
+        line_offset=values[LINE_OFFSET],
+    )
 
 
 #: ``contact_core``'s statuses: a contact, a force below the threshold, and those of
@@ -294,7 +318,6 @@ EDGE, EDGE_STD, EDGE_COV = slice(14, 17), 17, slice(18, 27)
 CORRECTED, INDENTATION, ON_SURFACE, TILT = slice(27, 30), 30, 31, 32
 OBSERVABLE, TILT_SNR, LINE_OFFSET, MISS, TOLERANCE = 33, 34, 35, 36, 37
 _FIELDS = 38
-_PARAMETERS = 10
 
 
 def contact_parameters(
@@ -364,20 +387,20 @@ def contact_core(wrench, parameters, noise_scale):
     observable, e, edge_std, edge_cov, tilt, snr = edge_from_force(
         f, fnorm, r, n, on_sphere, radius, soft, sigma_f, sigma_m, parameters[9]
     )
-    for i in range(3):
+    for i in range(3):  # POINT, NORMAL, NORMAL_MOMENT, TANGENTIAL_MOMENT, EDGE
         out[2 + i] = r[i]
         out[5 + i] = n[i]
         out[8 + i] = q_n[i]
         out[11 + i] = q_t[i]
         out[14 + i] = e[i]
     out[EDGE_STD] = edge_std
-    for i in range(9):
+    for i in range(9):  # EDGE_COV
         out[18 + i] = edge_cov[i]
     if not math.isnan(stiffness):
         corrected, delta = indentation_correction(
             f, r, n, stiffness, radius, thickness, parameters[8] != 0.0
         )
-        for i in range(3):
+        for i in range(3):  # CORRECTED
             out[27 + i] = corrected[i]
         out[INDENTATION] = delta
     out[ON_SURFACE] = 1.0 if on_surface else 0.0
@@ -388,7 +411,7 @@ def contact_core(wrench, parameters, noise_scale):
     return out
 
 
-def invalid_reason(out: list[float], threshold: float) -> str:
+def _invalid_reason(out: list[float], threshold: float) -> str:
     """Why ``contact_core`` found no contact, from its output (a list of floats)."""
     status = out[STATUS]
     if status == BELOW:
@@ -400,49 +423,3 @@ def invalid_reason(out: list[float], threshold: float) -> str:
             f"line of action misses surface by {out[MISS]:.3g} m (tolerance {out[TOLERANCE]:.3g} m)"
         )
     raise ValueError(f"not an invalid status of contact_core: {status!r}")
-
-
-def checked_contact(
-    f: tuple[float, float, float],
-    m: tuple[float, float, float],
-    geometry: FingertipGeometry,
-    model: str,
-    threshold: float,
-    sigma_f: float,
-    sigma_m: float,
-    skin_stiffness: float | None,
-    contact_shape: str,
-    prev: tuple[float, float, float] | None,
-    min_snr: float,
-) -> ContactEstimate:
-    """``estimate_contact`` of arguments already checked: finite float triples and parameters
-    in their ranges (the arguments of ``estimate_contact`` in its order, by position)."""
-    parameters = contact_parameters(
-        geometry, model, threshold, sigma_f, sigma_m, skin_stiffness, contact_shape, min_snr
-    )
-    out = contact_core(np.array(f + m), parameters, 1.0)
-    values = out.tolist()
-    if values[STATUS] != FOUND:
-        return ContactEstimate.invalid(f, invalid_reason(values, threshold))
-    edge = out[EDGE]
-    if values[OBSERVABLE]:
-        edge = orient_like(edge, [] if prev is None else [prev])
-    return ContactEstimate(
-        valid=True,
-        reason="",
-        point=out[POINT],
-        normal=out[NORMAL],
-        force=np.array(f),
-        normal_moment=out[NORMAL_MOMENT],
-        tangential_moment=out[TANGENTIAL_MOMENT],
-        edge_direction=edge,
-        edge_std=values[EDGE_STD],
-        edge_cov=out[EDGE_COV].reshape(3, 3),
-        corrected_point=out[CORRECTED],
-        indentation=values[INDENTATION],
-        on_surface=bool(values[ON_SURFACE]),
-        tilt=values[TILT],
-        edge_observable=bool(values[OBSERVABLE]),
-        tilt_snr=values[TILT_SNR],
-        line_offset=values[LINE_OFFSET],
-    )
