@@ -27,8 +27,11 @@ calls, the rest of ``ProbeScene.control_step`` (the simulator's Python) and the 
 env step (controller, sensing, gate, estimator, task, observation). Each part is timed around
 its calls with the thread's CPU time, as the rows are, so that other jobs on the cores do not
 count; a timed call costs about a microsecond of the clock's own, which is measured on calls
-of a function that does nothing and taken off each part and the total. The bare-physics
-multiple of the plain rows is the figure to quote, the split says what bounds it.
+of a function that does nothing and taken off each part and the total. A second scripted run
+splits the env's Python the same way (``ENV_PARTS``: the touch sensing, the gate, the stream
+checks and tare, the estimator's refits, the reading, the observation, the task's facts and
+``info``). The bare-physics multiple of the plain rows is the figure to quote, the split says
+what bounds it.
 """
 
 from __future__ import annotations
@@ -49,6 +52,9 @@ import pybullet as p  # noqa: E402
 
 import tactile_gym  # noqa: E402, F401 - registers the envs
 from agents.scripted import scripted_policy  # noqa: E402
+from tactile_gym.envs.hinge_probe import HingeProbeEnv  # noqa: E402
+from tactile_gym.perception import MeasurementGate, MeasurementPipeline  # noqa: E402
+from tactile_gym.sensing import TouchSensor  # noqa: E402
 from tactile_gym.sim import _kernels, _pose_kernels, _step_kernels  # noqa: E402
 from tactile_gym.sim.scene import PHYSICS, ProbeScene  # noqa: E402
 
@@ -71,6 +77,18 @@ PARTS = {
             ),
         ),
     ),
+}
+
+#: The parts of the env's Python that ``--profile`` times in a second run, like ``PARTS``; a
+#: call within another part (the touch sensing of a press the gate judges) counts in both.
+ENV_PARTS = {
+    "touch sensing (TouchSensor.sense)": ((TouchSensor, ("sense",)),),
+    "gate (MeasurementGate.offer: stillness, hold rule, presses)": ((MeasurementGate, ("offer",)),),
+    "stream checks and tare": ((MeasurementPipeline, ("_check", "_compensate")),),
+    "estimator refits": ((MeasurementPipeline, ("_estimate",)),),
+    "reading and its sample": ((HingeProbeEnv, ("_sample",)),),
+    "observation": ((HingeProbeEnv, ("_observation",)),),
+    "task facts and info": ((HingeProbeEnv, ("_true_facts", "_true_info")),),
 }
 
 #: Blocks of bare ``stepSimulation`` calls; the fastest block is the baseline, because on
@@ -211,22 +229,8 @@ def profile_parts(env_id: str, steps: int, physics: str) -> tuple[dict[str, floa
     control step by part, and the total, less the timers' own cost."""
     clock = time.thread_time
     inner, outer = timer_cost(clock)
-    timers = {name: _Timer(clock) for name in (*PARTS, "control_step")}
-    originals = []
-    for name, owners in PARTS.items():
-        for owner, attributes in owners:
-            for attribute in attributes:
-                originals.append((owner, attribute, getattr(owner, attribute)))
-                setattr(owner, attribute, timers[name].wrap(getattr(owner, attribute)))
-    originals.append((ProbeScene, "control_step", ProbeScene.control_step))
-    ProbeScene.control_step = timers["control_step"].wrap(ProbeScene.control_step)
-    try:
-        result = time_single(
-            env_id, "scripted", steps, physics, clock=clock, timers=list(timers.values())
-        )
-    finally:
-        for owner, attribute, original in originals:
-            setattr(owner, attribute, original)
+    scene_part = {"control_step": ((ProbeScene, ("control_step",)),)}
+    timers, result = timed_run(env_id, steps, physics, clock, {**PARTS, **scene_part})
     control_steps = steps * result["control steps/step"]
     scene = timers.pop("control_step")
     nested = sum(t.calls for t in timers.values())  # all within control_step
@@ -239,6 +243,36 @@ def profile_parts(env_id: str, steps: int, physics: str) -> tuple[dict[str, floa
     parts["simulator Python"] = sim - sum(parts.values())
     parts["env Python (sensing, gate, estimator, task, observation)"] = total - sim
     return parts, total
+
+
+def env_parts(env_id: str, steps: int, physics: str) -> dict[str, float]:
+    """The env's Python by part (``ENV_PARTS``), us per control step of the scripted
+    policy, less the timers' own cost."""
+    clock = time.thread_time
+    inner, _ = timer_cost(clock)
+    timers, result = timed_run(env_id, steps, physics, clock, ENV_PARTS)
+    control_steps = steps * result["control steps/step"]
+    return {name: 1e6 * (t.seconds - t.calls * inner) / control_steps for name, t in timers.items()}
+
+
+def timed_run(env_id: str, steps: int, physics: str, clock, parts: dict):
+    """A scripted run with the calls of ``parts`` (name: ((owner, attribute names), ...))
+    timed: the parts' ``_Timer`` by name, and ``time_single``'s result."""
+    timers = {name: _Timer(clock) for name in parts}
+    originals = []
+    for name, owners in parts.items():
+        for owner, attributes in owners:
+            for attribute in attributes:
+                originals.append((owner, attribute, getattr(owner, attribute)))
+                setattr(owner, attribute, timers[name].wrap(getattr(owner, attribute)))
+    try:
+        result = time_single(
+            env_id, "scripted", steps, physics, clock=clock, timers=list(timers.values())
+        )
+    finally:
+        for owner, attribute, original in originals:
+            setattr(owner, attribute, original)
+    return timers, result
 
 
 def profile(env_id: str, steps: int, physics: list[str], bare: float) -> str:
@@ -260,6 +294,16 @@ def profile(env_id: str, steps: int, physics: list[str], bare: float) -> str:
         lines.append(f"| {part} |{cells}")
     cells = "".join(f" {total:.0f} | {total / bare_us:.1f}x |" for _, total in runs.values())
     lines.append(f"| total (timed) |{cells}")
+    split = {name: env_parts(env_id, steps, name) for name in physics}
+    lines += [
+        "",
+        f"`{env_id}`, scripted policy, {steps} steps, a second run: the env's Python by part",
+        "",
+        "| part |" + "".join(f" {name} us |" for name in physics),
+        "|---|" + "---:|" * len(physics),
+    ]
+    for part in ENV_PARTS:
+        lines.append(f"| {part} |" + "".join(f" {split[name][part]:.1f} |" for name in physics))
     return "\n".join(lines)
 
 

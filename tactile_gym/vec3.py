@@ -4,7 +4,9 @@ per-call overhead.
 The sensing runs on every env step and the estimator on every measurement, and NumPy's
 per-call cost dominates on 3-vectors, so the per-reading work is done on Python floats, with
 the operations NumPy performs in its order (``docs/design.md`` 5, 7.1). The row-wise cross
-product of (N, 3) arrays serves the estimator's residuals. NumPy only.
+product of (N, 3) arrays serves the estimator's residuals. ``cross`` and ``dot`` are also
+compiled (``cross_kernel``, ``dot_kernel``) for the sensing's kernels: one source for both.
+NumPy and numba only.
 """
 
 from __future__ import annotations
@@ -13,7 +15,9 @@ import math
 
 import numpy as np
 
-__all__ = ["cross", "cross_array", "cross_rows", "dot", "norm"]
+from tactile_gym._jit import kernel
+
+__all__ = ["cross", "cross_array", "cross_kernel", "cross_rows", "dot", "dot_kernel", "norm"]
 
 
 def cross(a, b):
@@ -42,6 +46,11 @@ def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def dot(a, b) -> float:
     """a . b."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+#: ``cross`` and ``dot`` compiled and inlined into the kernels that call them.
+cross_kernel = kernel(inline="always")(cross)
+dot_kernel = kernel(inline="always")(dot)
 
 
 def norm(v: np.ndarray) -> float:

@@ -216,6 +216,38 @@ def test_readings_that_scatter_more_than_configured_count_for_fewer():
     assert effective_readings(SENSOR, quiet) == n  # never more than their count
 
 
+def test_the_compiled_hold_rule_is_numpys_formula_to_the_bit():
+    """``effective_readings`` and ``predicted_edge_std`` run compiled (one kernel per call);
+    written here with NumPy's var and mean and a touch of the mean, they agree to the bit,
+    for windows of 1 to 60 readings, steady and trending."""
+    rng = np.random.default_rng(4)
+    noise = np.r_[[SENSOR.force_noise_std] * 3, [SENSOR.moment_noise_std] * 3]
+    for n in range(1, 61):
+        trend = np.outer(np.arange(n), rng.standard_normal(6)) * noise * (n % 2)
+        readings = tilted_wrench(8.0) + 3.0 * noise * rng.standard_normal((n, 6)) + trend
+        count = float(n)
+        if n >= 2:
+            variance = readings.var(axis=0, ddof=1)
+            ratio = max(
+                1.0, variance[:3].mean() / noise[0] ** 2, variance[3:].mean() / noise[3] ** 2
+            )
+            count = n / ratio
+        assert effective_readings(SENSOR, readings) == count
+        mean = TOUCH.sense(readings.mean(axis=0), np.eye(3), np.zeros(3), readings=count)
+        assert predicted_edge_std(TOUCH, readings) == mean.edge_std
+
+
+def test_the_hold_rule_refuses_readings_that_are_not_finite_or_none():
+    readings = np.tile(tilted_wrench(), (3, 1))
+    readings[1, 4] = np.nan
+    with pytest.raises(ValueError, match="readings must be finite"):
+        predicted_edge_std(TOUCH, readings)
+    with pytest.raises(ValueError, match="readings must be finite"):
+        effective_readings(SENSOR, readings)
+    with pytest.raises(ValueError, match="at least one wrench"):
+        predicted_edge_std(TOUCH, np.zeros((0, 6)))
+
+
 def test_a_press_holds_until_its_rule_is_met_and_can_be_extended():
     skin = Winkler()
     wrench = tilted_wrench()

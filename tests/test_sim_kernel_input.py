@@ -1,6 +1,6 @@
 """The skin's kernels on degenerate input: no candidates, every node in contact, a pose with a
 NaN. They return a flagged result or raise a clear error, and never index past an array: the
-debug build (``TACTILE_GYM_BOUNDSCHECK=1``, ``tactile_gym/sim/_jit.py``) checks every index,
+debug build (``TACTILE_GYM_BOUNDSCHECK=1``, ``tactile_gym/_jit.py``) checks every index,
 and a subprocess runs these cases under it."""
 
 from __future__ import annotations
@@ -122,7 +122,8 @@ def test_the_v3_step_refuses_a_nan_joint_state():
 _DEBUG_RUN = textwrap.dedent(
     """
     import numpy as np
-    from tactile_gym.sim import ObjectConfig, ProbeScene, _jit, _kernels
+    from tactile_gym import _jit
+    from tactile_gym.sim import ObjectConfig, ProbeScene, _kernels
 
     assert _jit.BOUNDSCHECK
     # The degenerate cases of this file and a press in both steps, all index-checked.
@@ -146,6 +147,32 @@ _DEBUG_RUN = textwrap.dedent(
         )
     except IndexError:
         print("caught")
+    # The sensing's and the gate's kernels: contacts on both pieces and both models, a
+    # tangent force, a miss, the hold rule's windows and the gate's stillness, all
+    # index-checked; a wrench of three numbers, which the checked API refuses before the
+    # kernel, is caught inside it too.
+    from tactile_gym.perception.gate import _motion
+    from tactile_gym.sensing import (
+        FingertipGeometry, SensorConfig, TouchSensor, estimate_contact, predicted_edge_std,
+    )
+    from tactile_gym.sensing.contact import contact_core
+
+    for f, m, kw in (
+        ([0.5, -0.3, -5.0], [0.01, 0.02, 0.0005], {}),
+        ([-5.0, 0.2, 0.1], [0.0, -0.05, 0.001], {"model": "hard", "skin_stiffness": 8.8e7}),
+        ([0.0, 5.0, 0.0], [0.0, 0.0, 0.0], {"contact_shape": "edge", "skin_stiffness": 8.8e7}),
+        ([0.0, 0.0, -5.0], [1.0, 1.0, 0.0], {}),
+    ):
+        estimate_contact(f, m, **kw)
+    touch = TouchSensor(FingertipGeometry(), SensorConfig(), 8.8e7)
+    window = np.array([0.5, -0.3, -5.0, 0.01, 0.02, 0.0005]) + np.zeros((60, 1))
+    for n in (1, 2, 60):
+        predicted_edge_std(touch, window[:n])
+    _motion(np.eye(3), np.zeros(3), np.eye(3), np.ones(3), np.ones(3))
+    try:
+        contact_core(np.ones(3), touch._parameters, 1.0)
+    except IndexError:
+        print("caught")
     """
 )
 
@@ -153,8 +180,8 @@ _DEBUG_RUN = textwrap.dedent(
 @pytest.mark.slow
 def test_kernels_check_their_indices_in_the_debug_build(tmp_path):
     """``TACTILE_GYM_BOUNDSCHECK=1``: the kernels compile with index checks (not cached), a
-    press in both steps runs clean, and a bad index raises instead of writing past an
-    array. About 20 s of compiling."""
+    press in both steps and the sensing's and gate's kernels run clean, and a bad index
+    raises instead of writing past an array. About 25 s of compiling."""
     script = tmp_path / "debug_run.py"
     script.write_text(_DEBUG_RUN)
     test_file = os.path.abspath(__file__)
@@ -168,4 +195,4 @@ def test_kernels_check_their_indices_in_the_debug_build(tmp_path):
         timeout=600,
     )
     assert run.returncode == 0, run.stderr
-    assert run.stdout.strip().endswith("caught")
+    assert run.stdout.count("caught") == 2 and run.stdout.strip().endswith("caught")

@@ -49,10 +49,12 @@ measurement pipeline of a simulated or a real robot (``tactile_gym.perception``)
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from tactile_gym._jit import kernel
 from tactile_gym.estimation import AxisEstimate
 from tactile_gym.sensing import TOUCH_FORCE, HoldRule, Touch, TouchSensor, indentation_depth
 from tactile_gym.spatial import matrix_to_rotvec
@@ -63,7 +65,7 @@ from tactile_gym.validation import (
     check_number,
     check_range,
 )
-from tactile_gym.vec3 import norm
+from tactile_gym.vec3 import dot_kernel, norm
 
 __all__ = [
     "GATE_RULES",
@@ -356,6 +358,24 @@ def line_distance(point, direction, axis_point, axis) -> float:
     return abs(float(w @ normal)) / float(np.linalg.norm(normal))
 
 
+@kernel()
+def _motion(rotation, position, last_rotation, last_position, force):
+    """The gate's per-step stillness, in one compiled call: how far the fingertip moved since
+    the last pose, m, whether its rotation is the same to the bit, and |f|, N (the norms as
+    ``vec3.norm`` takes them)."""
+    unturned = True
+    for i in range(3):
+        for j in range(3):
+            if rotation[i, j] != last_rotation[i, j]:
+                unturned = False
+    d = (
+        position[0] - last_position[0],
+        position[1] - last_position[1],
+        position[2] - last_position[2],
+    )
+    return math.sqrt(dot_kernel(d, d)), unturned, math.sqrt(dot_kernel(force, force))
+
+
 def _floored(edge: np.ndarray, cov: np.ndarray, floor: float) -> np.ndarray:
     """``cov`` plus isotropic variance so that its total is at least ``floor^2``."""
     missing = floor * floor - float(np.trace(cov))
@@ -376,6 +396,9 @@ class MeasurementGate:
         self.config = config
         self.sensor = sensor
         self._hold = config.hold_rule
+        # The still window's readings, in order: rows of one buffer, so that the hold rule
+        # reads them as one (n, 6) array every step without stacking them anew.
+        self._held = np.empty((self._hold.most, 6))
         #: Expected distance of the probed edge from the axis (mean, std), m, or None.
         self.edge_distance: tuple[float, float] | None = None
         self._radius = sensor.geometry.outer_radius
@@ -387,7 +410,7 @@ class MeasurementGate:
         self._touch_pose: tuple[np.ndarray, np.ndarray] | None = None
         self._pose: tuple[np.ndarray, np.ndarray] | None = None
         self._pressed = False  # a press measurement was taken during this touch
-        self._window: list[np.ndarray] = []
+        self._count = 0  # readings in the still window
         # The skin's displacement at the contact, step by step since the first touch.
         self._patch: list[np.ndarray] = []
         #: Why the last press or same-edge test refused a measurement ("" after an accept).
@@ -401,7 +424,7 @@ class MeasurementGate:
         """End the touch in progress, as when the skin reads free: the next contact starts a
         new touch (a robot's "lift" event)."""
         self._touch_pose, self._pressed = None, False
-        self._window = []
+        self._count = 0
 
     def interrupt(self, rule: str, why: str) -> None:
         """Spoil the touch in progress after a fault in the stream of readings (a dropped
@@ -411,7 +434,7 @@ class MeasurementGate:
         next reading is not still."""
         if self._touch_pose is not None and not self._pressed:
             self._pressed = True
-            self._window = []
+            self._count = 0
             self._reject(rule, why)
         self._pose = None
 
@@ -424,10 +447,17 @@ class MeasurementGate:
             touch: the contact estimate of this single reading (``TouchSensor.sense``).
         """
         cfg = self.config
-        moved, turned = self._motion(rotation, position)
+        if self._pose is None:
+            moved = turned = np.inf
+            magnitude = norm(touch.force)
+        else:
+            r0, p0 = self._pose
+            moved, unturned, magnitude = _motion(rotation, position, r0, p0, touch.force)
+            # An unturned fingertip's rotation vector would be exactly 0 (R R^T is symmetric
+            # to the bit); most steps do not turn it.
+            turned = 0.0 if unturned else norm(matrix_to_rotvec(rotation @ r0.T))
         before = self._pose
         self._pose = (rotation.copy(), position.copy())
-        magnitude = norm(touch.force)
         if not touch.valid:  # |f| below TOUCH_FORCE, or no contact explains the wrench
             self.end_touch()
             return []
@@ -443,33 +473,25 @@ class MeasurementGate:
         still = moved <= cfg.still_translation and turned <= cfg.still_rotation
         out = []
         if still and in_band and not self._pressed:
-            self._window.append(np.asarray(wrench, dtype=float))
-            if self._hold.enough(self.sensor, self._window):
+            self._held[self._count] = wrench
+            self._count += 1
+            if self._hold.enough(self.sensor, self._held[: self._count]):
                 self._pressed = True
                 measurement = self._press(rotation, position)
                 if measurement is not None:
                     out.append(measurement)
         else:
-            self._window = []
+            self._count = 0
         return out
 
     # ------------------------------------------------------------------ press
-    def _motion(self, rotation: np.ndarray, position: np.ndarray) -> tuple[float, float]:
-        if self._pose is None:
-            return np.inf, np.inf
-        r0, p0 = self._pose
-        # An unturned fingertip's rotation vector would be exactly 0 (R R^T is symmetric to
-        # the bit); most steps do not turn it.
-        turned = 0.0 if (rotation == r0).all() else norm(matrix_to_rotvec(rotation @ r0.T))
-        return norm(position - p0), turned
-
     def _reject(self, rule: str, why: str) -> None:
         self.last_rule, self.last_rejection = rule, why
         self.refusals += 1
 
     def _press(self, rotation: np.ndarray, position: np.ndarray) -> Measurement | None:
         cfg = self.config
-        window = np.asarray(self._window)
+        window = self._held[: self._count]
         magnitudes = np.linalg.norm(window[:, :3], axis=1)
         if cfg.steady_rule == "spread":
             spread = float(np.ptp(magnitudes))

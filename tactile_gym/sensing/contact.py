@@ -19,7 +19,9 @@ Conventions (``docs/design.md`` 2):
 * The skin's outer surface is the hemisphere (z >= L) plus the cylinder side (0 <= z <= L),
   both of radius R = ``FingertipGeometry.outer_radius``.
 
-NumPy only; no pybullet or torch, so real robots can reuse it.
+The numeric core, from the wrench to every field of the estimate, is one compiled call
+(``contact_core``, ``tactile_gym._jit``; ``docs/design.md`` 7.1), which ``TouchSensor`` calls
+on every reading too. NumPy and numba only; no pybullet or torch, so real robots can reuse it.
 """
 
 from __future__ import annotations
@@ -29,8 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tactile_gym._jit import kernel
 from tactile_gym.sensing.contact_point import (
     CONTACT_MODELS,
+    FOUND,
+    MISSES,
+    PULLS,
     contact_point,
     friction_moment,
     line_offset,
@@ -39,10 +45,17 @@ from tactile_gym.sensing.edge import EDGE_STD_UNOBSERVABLE, edge_from_force, nan
 from tactile_gym.sensing.geometry import FingertipGeometry
 from tactile_gym.sensing.indentation import CONTACT_SHAPES, indentation_correction
 from tactile_gym.sensing.sensor import TOUCH_FORCE, SensorConfig
+from tactile_gym.spatial import orient_like
 from tactile_gym.validation import check_number
-from tactile_gym.vec3 import dot
+from tactile_gym.vec3 import dot_kernel
 
-__all__ = ["MIN_TILT_SNR", "ContactEstimate", "checked_contact", "estimate_contact"]
+__all__ = [
+    "MIN_TILT_SNR",
+    "ContactEstimate",
+    "contact_core",
+    "contact_parameters",
+    "estimate_contact",
+]
 
 _DEFAULT_GEOMETRY = FingertipGeometry()
 #: The least tilt signal-to-noise ratio of an observable edge, standard deviations
@@ -261,15 +274,53 @@ def estimate_contact(
             )
         skin_stiffness = k_n
     prev = None if previous_edge is None else _vec3(previous_edge, "previous_edge")
-    return checked_contact(
-        f, m, geometry, model, threshold, sigma_f, sigma_m, skin_stiffness, contact_shape, prev,
-        min_snr,
-    )  # fmt: skip
+    parameters = contact_parameters(
+        geometry, model, threshold, sigma_f, sigma_m, skin_stiffness, contact_shape, min_snr
+    )
+    out = contact_core(np.array(f + m), parameters, 1.0)
+    values = out.tolist()
+    if values[STATUS] != FOUND:
+        return ContactEstimate.invalid(f, _invalid_reason(values, threshold))
+    edge = out[EDGE]
+    if values[OBSERVABLE]:
+        edge = orient_like(edge, [] if prev is None else [prev])
+    return ContactEstimate(
+        valid=True,
+        reason="",
+        point=out[POINT],
+        normal=out[NORMAL],
+        force=np.array(f),
+        normal_moment=out[NORMAL_MOMENT],
+        tangential_moment=out[TANGENTIAL_MOMENT],
+        edge_direction=edge,
+        edge_std=values[EDGE_STD],
+        edge_cov=out[EDGE_COV].reshape(3, 3),
+        corrected_point=out[CORRECTED],
+        indentation=values[INDENTATION],
+        on_surface=bool(values[ON_SURFACE]),
+        tilt=values[TILT],
+        edge_observable=bool(values[OBSERVABLE]),
+        tilt_snr=values[TILT_SNR],
+        line_offset=values[LINE_OFFSET],
+    )
 
 
-def checked_contact(
-    f: tuple[float, float, float],
-    m: tuple[float, float, float],
+#: ``contact_core``'s statuses: a contact, a force below the threshold, and those of
+#: ``contact_point`` that found none.
+BELOW = 3
+#: Where ``contact_core`` writes each field of the estimate (a slice or an index): the
+#: status, |f|, then ``ContactEstimate``'s fields (the edge unsigned, the booleans as 0 or
+#: 1), then how far a missed line of action passes the skin and the tolerance.
+STATUS, FNORM = 0, 1
+POINT, NORMAL = slice(2, 5), slice(5, 8)
+NORMAL_MOMENT, TANGENTIAL_MOMENT = slice(8, 11), slice(11, 14)
+EDGE, EDGE_STD, EDGE_COV = slice(14, 17), 17, slice(18, 27)
+CORRECTED, INDENTATION, ON_SURFACE, TILT = slice(27, 30), 30, 31, 32
+OBSERVABLE, TILT_SNR, LINE_OFFSET, MISS, TOLERANCE = 33, 34, 35, 36, 37
+_FIELDS = 38
+
+
+def contact_parameters(
     geometry: FingertipGeometry,
     model: str,
     threshold: float,
@@ -277,43 +328,98 @@ def checked_contact(
     sigma_m: float,
     skin_stiffness: float | None,
     contact_shape: str,
-    prev: tuple[float, float, float] | None,
     min_snr: float,
-) -> ContactEstimate:
-    """``estimate_contact`` of arguments already checked: finite float triples and parameters
-    in their ranges (the arguments of ``estimate_contact`` in its order, by position). The
-    per-reading path of a caller that checked its parameters once (``TouchSensor``)."""
-    fnorm = math.sqrt(dot(f, f))
+) -> np.ndarray:
+    """``contact_core``'s parameters, already checked (``estimate_contact``'s, in its order):
+    the soft model (1.0 or 0.0), R, L, the threshold, the noise, the stiffness (NaN: no
+    indentation), the skin thickness, the edge shape (1.0 or 0.0), the least tilt SNR."""
+    return np.array(
+        [
+            float(model == "soft"),
+            geometry.outer_radius,
+            geometry.cylinder_length,
+            threshold,
+            sigma_f,
+            sigma_m,
+            math.nan if skin_stiffness is None else skin_stiffness,
+            geometry.skin_thickness,
+            float(contact_shape == "edge"),
+            min_snr,
+        ]
+    )
+
+
+@kernel()
+def contact_core(wrench, parameters, noise_scale):
+    """The contact estimate of one checked wrench, every field in one array (``STATUS`` ...).
+
+    Args:
+        wrench: (6,) finite force (N) and moment (N m), sensor frame.
+        parameters: (10,) ``contact_parameters``.
+        noise_scale: factor on the sensor noise (1/sqrt(n) for the mean of n readings).
+
+    Returns:
+        (38,) floats at the indices and slices of this module (``STATUS``: ``FOUND``,
+        ``PULLS``, ``MISSES`` or ``BELOW``); only the status, |f| and, for a miss, the miss
+        distance and tolerance are set for an invalid estimate.
+    """
+    out = np.full(_FIELDS, np.nan)
+    f = (wrench[0], wrench[1], wrench[2])
+    m = (wrench[3], wrench[4], wrench[5])
+    soft = parameters[0] != 0.0
+    radius, length, threshold = parameters[1], parameters[2], parameters[3]
+    sigma_f = parameters[4] * noise_scale
+    sigma_m = parameters[5] * noise_scale
+    stiffness, thickness = parameters[6], parameters[7]
+    fnorm = math.sqrt(dot_kernel(f, f))
+    out[FNORM] = fnorm
     if fnorm < threshold or fnorm == 0.0:
-        return ContactEstimate.invalid(f, f"force below threshold ({fnorm:.4g} N < {threshold} N)")
-    radius = geometry.outer_radius
-    contact = contact_point(f, m, fnorm, model, radius, geometry.cylinder_length, sigma_f, sigma_m)
-    if isinstance(contact, str):
-        return ContactEstimate.invalid(f, contact)
-    r, n, on_sphere, on_surface = contact
+        out[STATUS] = BELOW
+        return out
+    status, r, n, on_sphere, on_surface, miss, tol = contact_point(
+        f, m, fnorm, soft, radius, length, sigma_f, sigma_m
+    )
+    out[STATUS] = status
+    if status != FOUND:
+        out[MISS], out[TOLERANCE] = miss, tol
+        return out
     q, q_n, q_t = friction_moment(f, m, r, n)
-    edge, edge_std, edge_cov, tilt, snr, observable = edge_from_force(
-        f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, min_snr, prev
+    observable, e, edge_std, edge_cov, tilt, snr = edge_from_force(
+        f, fnorm, r, n, on_sphere, radius, soft, sigma_f, sigma_m, parameters[9]
     )
-    corrected, delta = _NAN3, math.nan
-    if skin_stiffness is not None:
-        corrected, delta = indentation_correction(f, r, n, skin_stiffness, geometry, contact_shape)
-    return ContactEstimate(
-        valid=True,
-        reason="",
-        point=np.array(r),
-        normal=np.array(n),
-        force=np.array(f),
-        normal_moment=np.array(q_n),
-        tangential_moment=np.array(q_t),
-        edge_direction=edge,
-        edge_std=edge_std,
-        edge_cov=np.array(edge_cov).reshape(3, 3),
-        corrected_point=np.array(corrected),
-        indentation=delta,
-        on_surface=on_surface,
-        tilt=tilt,
-        edge_observable=observable,
-        tilt_snr=snr,
-        line_offset=line_offset(f, fnorm, q, n, radius),
-    )
+    for i in range(3):  # POINT, NORMAL, NORMAL_MOMENT, TANGENTIAL_MOMENT, EDGE
+        out[2 + i] = r[i]
+        out[5 + i] = n[i]
+        out[8 + i] = q_n[i]
+        out[11 + i] = q_t[i]
+        out[14 + i] = e[i]
+    out[EDGE_STD] = edge_std
+    for i in range(9):  # EDGE_COV
+        out[18 + i] = edge_cov[i]
+    if not math.isnan(stiffness):
+        corrected, delta = indentation_correction(
+            f, r, n, stiffness, radius, thickness, parameters[8] != 0.0
+        )
+        for i in range(3):  # CORRECTED
+            out[27 + i] = corrected[i]
+        out[INDENTATION] = delta
+    out[ON_SURFACE] = 1.0 if on_surface else 0.0
+    out[TILT] = tilt
+    out[OBSERVABLE] = 1.0 if observable else 0.0
+    out[TILT_SNR] = snr
+    out[LINE_OFFSET] = line_offset(f, fnorm, q, n, radius)
+    return out
+
+
+def _invalid_reason(out: list[float], threshold: float) -> str:
+    """Why ``contact_core`` found no contact, from its output (a list of floats)."""
+    status = out[STATUS]
+    if status == BELOW:
+        return f"force below threshold ({out[FNORM]:.4g} N < {threshold} N)"
+    if status == PULLS:
+        return "force pulls out of the skin (f . n > 0)"
+    if status == MISSES:
+        return (
+            f"line of action misses surface by {out[MISS]:.3g} m (tolerance {out[TOLERANCE]:.3g} m)"
+        )
+    raise ValueError(f"not an invalid status of contact_core: {status!r}")

@@ -6,7 +6,9 @@ tilt stands out of that noise at all (observability, ``docs/design.md`` 5) come 
 line through the contact points of a slide gives another estimate (``docs/design.md`` 4.3).
 
 Conventions (``docs/design.md`` 2): SI units, radians; vectors in the sensor frame, as tuples of
-floats on the per-reading path (``tactile_gym.vec3``). NumPy only.
+floats on the per-reading path (``tactile_gym.vec3``). The per-reading functions are written
+in numba's subset and compiled (``tactile_gym._jit``), rounding as Python floats do
+(``tactile_gym.sensing.contact_point``). NumPy and numba only.
 """
 
 from __future__ import annotations
@@ -15,9 +17,10 @@ import math
 
 import numpy as np
 
-from tactile_gym.spatial import orient_like
+from tactile_gym._jit import kernel
 from tactile_gym.validation import check_number
-from tactile_gym.vec3 import cross, dot
+from tactile_gym.vec3 import cross_kernel as cross
+from tactile_gym.vec3 import dot_kernel as dot
 
 __all__ = ["EDGE_STD_UNOBSERVABLE", "edge_from_force", "edge_from_trace"]
 
@@ -32,7 +35,8 @@ def nan3() -> np.ndarray:
     return _NAN_VECTOR.copy()  # a copy costs a fifth of np.full, on every reading in free air
 
 
-def edge_from_force(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, min_snr, prev):
+@kernel()
+def edge_from_force(f, fnorm, r, n, on_sphere, radius, soft, sigma_f, sigma_m, min_snr):
     """Edge direction e = normalise(n x f), its predicted error, and whether it is observable.
 
     The edge is observable when the force's tilt from -n stands out of the sensor noise,
@@ -48,18 +52,18 @@ def edge_from_force(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, 
         r: (3,) contact point, m; n: (3,) outward unit normal there. All sensor frame.
         on_sphere: whether r is on the hemisphere (else on the cylinder side).
         radius: outer skin radius R, m.
-        model: one of ``CONTACT_MODELS``.
+        soft: the soft contact model (else the hard one, ``CONTACT_MODELS``).
         sigma_f, sigma_m: sensor noise per axis, N and N m.
         min_snr: the least tilt_snr at which e counts as observable.
-        prev: (3,) previous edge direction to orient e like, or None.
 
     Returns:
-        (e, edge_std, edge_cov, tilt, tilt_snr, observable): e, an array (3,) oriented by
-        ``orient_like``; its RMS angle error, rad; the (3, 3) covariance of de, rad^2,
-        row-major as 9 floats; the angle between f and -n, rad; tilt_snr (0 for an untilted
-        force, NaN for a force tangent to the skin, where the noise model breaks down, inf
-        without sensor noise); observable. When not observable, e and edge_cov are NaN and
-        edge_std is ``EDGE_STD_UNOBSERVABLE``.
+        (observable, e, edge_std, edge_cov, tilt, tilt_snr): whether e is; e as n x f_t /
+        |f_t|, which points along the edge with the force's tilt on a fixed side (a caller
+        signs it, ``orient_like`` or the physical sign of ``TouchSensor``); its RMS angle
+        error, rad; the (3, 3) covariance of de, rad^2, row-major as 9 floats; the angle
+        between f and -n, rad; tilt_snr (0 for an untilted force, NaN for a force tangent to
+        the skin, where the noise model breaks down, inf without sensor noise). When not
+        observable, e and edge_cov are NaN and edge_std is ``EDGE_STD_UNOBSERVABLE``.
     """
     fn = dot(f, n)
     ftv = (f[0] - fn * n[0], f[1] - fn * n[1], f[2] - fn * n[2])
@@ -67,12 +71,12 @@ def edge_from_force(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, 
     tilt = math.atan2(ft, -fn)
     if ft <= 1e-12 * fnorm or abs(fn) <= 1e-12 * fnorm:
         snr = 0.0 if ft <= 1e-12 * fnorm else math.nan
-        return nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt, snr, False
+        return False, _NAN3, EDGE_STD_UNOBSERVABLE, _NAN33, tilt, snr
     ev = cross(n, ftv)
     e = (ev[0] / ft, ev[1] / ft, ev[2] / ft)
     g = (-ftv[0] / ft, -ftv[1] / ft, -ftv[2] / ft)  # n x e
     s_ee, s_eg, s_gg, var_out, cov_io = _edge_noise(
-        fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m
+        fn, ft, r, n, e, g, on_sphere, radius, soft, sigma_f, sigma_m
     )
     det = s_ee * s_gg - s_eg * s_eg
     # f_t = -|f_t| g, so f_t^T S^-1 f_t = |f_t|^2 s_ee / det.
@@ -81,7 +85,7 @@ def edge_from_force(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, 
     cov_io /= ft
     std = math.sqrt(var_in + var_out)
     if not (snr > min_snr and std < EDGE_STD_UNOBSERVABLE):
-        return nan3(), EDGE_STD_UNOBSERVABLE, _NAN33, tilt, snr, False
+        return False, _NAN3, EDGE_STD_UNOBSERVABLE, _NAN33, tilt, snr
     # cov = var_in g g^T + var_out n n^T + cov_io (g n^T + n g^T); row i is x_i g + y_i n.
     g0, g1, g2 = g
     n0, n1, n2 = n
@@ -91,10 +95,11 @@ def edge_from_force(f, fnorm, r, n, on_sphere, radius, model, sigma_f, sigma_m, 
     c02 = x0 * g2 + y0 * n2
     c12 = x1 * g2 + y1 * n2
     cov = (x0 * g0 + y0 * n0, c01, c02, c01, x1 * g1 + y1 * n1, c12, c02, c12, x2 * g2 + y2 * n2)
-    return orient_like(e, [] if prev is None else [prev]), std, cov, tilt, snr, True
+    return True, e, std, cov, tilt, snr
 
 
-def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m):
+@kernel()
+def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, soft, sigma_f, sigma_m):
     """First-order noise of the tangential force f_t and of e = normalise(n x f).
 
     The sensor noise (df, dm) is isotropic Gaussian, sigma_f and sigma_m per axis. Vectors are
@@ -123,7 +128,7 @@ def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m):
     Args:
         fn: f . n, N (non-zero); ft: |f_t|, N.
         r: (3,) contact point, m; n, e, g: (3,) the unit basis. All sensor frame.
-        on_sphere, radius, model, sigma_f, sigma_m: see ``edge_from_force``.
+        on_sphere, radius, soft, sigma_f, sigma_m: see ``edge_from_force``.
 
     Returns:
         (s_ee, s_eg, s_gg, var_out, cov_io_ft): S's entries, N^2; var(de.n), rad^2; and
@@ -136,7 +141,7 @@ def _edge_noise(fn, ft, r, n, e, g, on_sphere, radius, model, sigma_f, sigma_m):
         te = n[0] * e[1] - n[1] * e[0]  # t . e
         tg = n[0] * g[1] - n[1] * g[0]
         kee, keg, kgg = te * te / radius, te * tg / radius, tg * tg / radius
-    if model == "soft":
+    if soft:
         c1, c2 = 1.0 / fn, 0.0
     else:
         f2 = fn * fn + ft * ft

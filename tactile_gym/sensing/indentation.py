@@ -5,7 +5,8 @@ indentation (``docs/design.md`` 4.5). Near an edge a press indents like a plane,
 ``"plane"`` is the default shape.
 
 Conventions (``docs/design.md`` 2): SI units; stiffness as a Winkler modulus, N/m^3; vectors in
-the sensor frame, as tuples of floats on the per-reading path. NumPy only.
+the sensor frame, as tuples of floats on the per-reading path, whose functions are compiled
+(``tactile_gym._jit``, rounding as Python floats do). NumPy and numba only.
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ import math
 
 import numpy as np
 
-from tactile_gym.vec3 import dot
+from tactile_gym._jit import kernel
+from tactile_gym.vec3 import dot_kernel as dot
 
 __all__ = ["CONTACT_SHAPES", "indentation_correction", "indentation_depth"]
 
@@ -58,36 +60,38 @@ def indentation_depth(
     if not np.all(np.isfinite(load)) or np.any(load < 0.0):
         raise ValueError(f"normal_force must be finite and >= 0 N, got {normal_force!r}")
     if load.ndim == 0:
-        return _depth(float(load), k, rad, contact_shape)
+        return _depth(float(load), k, rad, contact_shape == "edge")
     if contact_shape == "plane":
         return np.sqrt(load / (k * math.pi * rad))
     return (load / (k * (16.0 / 15.0) * math.sqrt(2.0 * rad))) ** 0.4
 
 
-def _depth(load: float, k: float, rad: float, contact_shape: str) -> float:
-    """``indentation_depth`` for checked scalar input, on floats (the per-call fast path)."""
-    if contact_shape == "plane":
+@kernel()
+def _depth(load: float, k: float, rad: float, edge: bool) -> float:
+    """``indentation_depth`` for checked scalar input, on floats (the per-call fast path);
+    ``edge``: the ``"edge"`` shape, else ``"plane"``."""
+    if not edge:
         return math.sqrt(load / (k * math.pi * rad))
     return (load / (k * (16.0 / 15.0) * math.sqrt(2.0 * rad))) ** 0.4
 
 
-def indentation_correction(f, r, n, k_n, geometry, contact_shape):
+@kernel()
+def indentation_correction(f, r, n, k_n, radius, thickness, edge):
     """Indentation depth and the contact point moved in by it (docs/design.md 4.5).
 
     Args:
         f: (3,) force, N; r: (3,) contact point, m; n: (3,) outward unit normal. Sensor frame.
         k_n: Winkler modulus, N/m^3; > 0.
-        geometry: the fingertip (``FingertipGeometry``: outer radius and skin thickness).
-        contact_shape: one of ``CONTACT_SHAPES``.
+        radius: outer skin radius, m; thickness: skin thickness, m (``FingertipGeometry``).
+        edge: the ``"edge"`` contact shape, else ``"plane"`` (``CONTACT_SHAPES``).
 
     Returns:
         (r - delta n, delta): the corrected point (3,), m, and delta, m, the depth of
         ``indentation_depth`` for the normal load -f . n capped at the skin thickness (the
         shell is rigid).
     """
-    load = max(-dot(f, n), 0.0)
-    delta = min(
-        _depth(load, k_n, geometry.outer_radius, contact_shape),
-        geometry.skin_thickness,
-    )
+    load = -dot(f, n)
+    load = 0.0 if 0.0 > load else load  # max(load, 0.0), as Python takes it
+    delta = _depth(load, k_n, radius, edge)
+    delta = thickness if thickness < delta else delta
     return (r[0] - delta * n[0], r[1] - delta * n[1], r[2] - delta * n[2]), delta

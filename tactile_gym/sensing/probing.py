@@ -40,7 +40,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile_gym.sensing.contact import MIN_TILT_SNR, checked_contact
+from tactile_gym._jit import kernel
+from tactile_gym.sensing import contact
+from tactile_gym.sensing.contact import MIN_TILT_SNR, contact_core, contact_parameters
 from tactile_gym.sensing.geometry import FingertipGeometry
 from tactile_gym.sensing.sensor import TOUCH_FORCE, SensorConfig
 from tactile_gym.validation import check_bool, check_int, check_number
@@ -61,8 +63,6 @@ __all__ = [
 
 _NAN3 = np.full(3, np.nan)
 _NAN33 = np.full((3, 3), np.nan)
-_EYE = np.eye(3)
-_ZERO3 = np.zeros(3)
 
 
 @dataclass(frozen=True)
@@ -112,6 +112,18 @@ class TouchSensor:
         self.geometry = geometry
         self.sensor = sensor
         self.skin_stiffness = check_number("skin_stiffness", skin_stiffness, 0.0, low_open=True)
+        # ``estimate_contact``'s soft model with this fingertip, noise and skin, checked here
+        # once: a reading is sensed every control step.
+        self._parameters = contact_parameters(
+            geometry,
+            "soft",
+            TOUCH_FORCE,
+            check_number("force_noise_std", sensor.force_noise_std, 0.0),
+            check_number("moment_noise_std", sensor.moment_noise_std, 0.0),
+            self.skin_stiffness,
+            "plane",
+            MIN_TILT_SNR,
+        )
 
     def sense(
         self, wrench: np.ndarray, rotation: np.ndarray, position: np.ndarray, readings: float = 1
@@ -126,48 +138,47 @@ class TouchSensor:
                 a float where the mean is worth a fractional count
                 (:func:`effective_readings`).
         """
-        values = np.asarray(wrench, dtype=float).tolist()
-        if len(values) != 6 or not all(map(math.isfinite, values)):
+        w = self._checked(wrench)
+        out = contact_core(w, self._parameters, 1.0 / math.sqrt(readings))
+        return self._sensed(out, rotation @ w[:3], rotation, position)
+
+    @staticmethod
+    def _checked(wrench) -> np.ndarray:
+        """The wrench as a (6,) float array, or a ValueError if it is not 6 finite numbers."""
+        w = np.ascontiguousarray(wrench, dtype=float)  # the kernel's one layout
+        values = w.tolist()
+        if w.shape != (6,) or not all(map(math.isfinite, values)):
             raise ValueError(f"wrench must be 6 finite numbers, got {values}")
-        scale = 1.0 / math.sqrt(readings)
-        # The checks of ``estimate_contact`` are done: the wrench here, the rest once in
-        # ``__init__`` (a reading is sensed every control step).
-        est = checked_contact(
-            tuple(values[:3]),
-            tuple(values[3:]),
-            self.geometry,
-            "soft",
-            TOUCH_FORCE,
-            self.sensor.force_noise_std * scale,
-            self.sensor.moment_noise_std * scale,
-            self.skin_stiffness,
-            "plane",
-            None,
-            MIN_TILT_SNR,
-        )
-        force = rotation @ est.force
-        if not est.valid:
-            return Touch(False, force, _NAN3, _NAN3, _NAN3, est.edge_std, _NAN33, np.nan)
-        normal = rotation @ est.normal
+        return w
+
+    @staticmethod
+    def _sensed(out: np.ndarray, force: np.ndarray, rotation, position) -> Touch:
+        """The Touch of ``contact_core``'s output, in the world frame of the pose."""
+        values = out.tolist()
+        if values[contact.STATUS] != contact.FOUND:
+            return Touch(
+                False, force, _NAN3, _NAN3, _NAN3, contact.EDGE_STD_UNOBSERVABLE, _NAN33, np.nan
+            )
+        normal = rotation @ out[contact.NORMAL]
         edge = _NAN3
         edge_cov = _NAN33
-        if est.edge_observable:
-            # Sign of e . (n x f), on floats (np.linalg.det of the three cost more than the
-            # rest of this method). An observable edge has |n x f| = |f_t| far above the
-            # rounding, so the sign is the determinant's.
-            edge = rotation @ est.edge_direction
+        if values[contact.OBSERVABLE]:
+            # Signed physically: e . (n x f) > 0, on floats (np.linalg.det of the three cost
+            # more than the rest of this method). An observable edge has |n x f| = |f_t| far
+            # above the rounding, so the sign is the determinant's.
+            edge = rotation @ out[contact.EDGE]
             if dot(edge.tolist(), cross(normal.tolist(), force.tolist())) < 0.0:
                 edge = -edge
-            edge_cov = rotation @ est.edge_cov @ rotation.T
+            edge_cov = rotation @ out[contact.EDGE_COV].reshape(3, 3) @ rotation.T
         return Touch(
             valid=True,
             force=force,
-            point=rotation @ est.corrected_point + position,
+            point=rotation @ out[contact.CORRECTED] + position,
             normal=normal,
             edge=edge,
-            edge_std=est.edge_std,
+            edge_std=values[contact.EDGE_STD],
             edge_cov=edge_cov,
-            tilt=est.tilt,
+            tilt=values[contact.TILT],
         )
 
 
@@ -186,19 +197,8 @@ def effective_readings(sensor: SensorConfig, readings: np.ndarray) -> float:
     Returns:
         n divided by max(1, measured / configured variance), readings.
     """
-    readings = np.asarray(readings, dtype=float).reshape(-1, 6)
-    n = len(readings)
-    if n < 2:
-        return float(n)
-    variance = readings.var(axis=0, ddof=1)
-    ratio = 1.0
-    for part, std in (
-        (variance[:3], sensor.force_noise_std),
-        (variance[3:], sensor.moment_noise_std),
-    ):
-        if std > 0.0:
-            ratio = max(ratio, float(part.mean()) / (std * std))
-    return n / ratio
+    readings = _checked_readings(readings)
+    return _effective_readings(readings, sensor.force_noise_std, sensor.moment_noise_std)
 
 
 def predicted_edge_std(sensor: TouchSensor, readings: np.ndarray) -> float:
@@ -206,15 +206,74 @@ def predicted_edge_std(sensor: TouchSensor, readings: np.ndarray) -> float:
 
     ``TouchSensor.sense`` of their mean, read as the mean of :func:`effective_readings`
     readings: the configured noise over sqrt(n), or the noise the readings show where it is
-    larger (pi/2 when the mean shows no edge).
+    larger (pi/2 when the mean shows no edge). One compiled call (``_hold_edge_std``): the
+    measurement gate asks it on every still reading of a press.
 
     Args:
         sensor: the touch sensing (its configured noise, fingertip and skin).
         readings: (n, 6) wrenches in the sensor frame, n >= 1.
     """
-    readings = np.asarray(readings, dtype=float).reshape(-1, 6)
-    count = effective_readings(sensor.sensor, readings)
-    return sensor.sense(readings.mean(axis=0), _EYE, _ZERO3, readings=count).edge_std
+    readings = _checked_readings(readings)
+    if len(readings) == 0:
+        raise ValueError("readings must hold at least one wrench, got none")
+    return _hold_edge_std(readings, sensor._parameters)
+
+
+def _checked_readings(readings) -> np.ndarray:
+    """(n, 6) finite wrenches as a C-ordered float array (the kernels' one layout)."""
+    r = np.ascontiguousarray(np.asarray(readings, dtype=float).reshape(-1, 6))
+    if not np.isfinite(r).all():
+        raise ValueError(f"readings must be finite, got {r.tolist()}")
+    return r
+
+
+@kernel()
+def _column_sums(readings):
+    """The sums down the columns of (n, 6) readings (n >= 1), as NumPy's ``sum(axis=0)``
+    adds them: row after row."""
+    total = readings[0].copy()
+    for i in range(1, readings.shape[0]):
+        for j in range(6):
+            total[j] = total[j] + readings[i, j]
+    return total
+
+
+@kernel()
+def _effective_readings(readings, force_std, moment_std):
+    """``effective_readings`` of checked (n, 6) readings, rounding as NumPy's
+    ``var(axis=0, ddof=1)`` and ``mean`` do (sums in order, then one division)."""
+    n = readings.shape[0]
+    if n < 2:
+        return float(n)
+    mean = _column_sums(readings) / n
+    variance = np.empty(6)
+    for j in range(6):
+        d = readings[0, j] - mean[j]
+        total = d * d
+        for i in range(1, n):
+            d = readings[i, j] - mean[j]
+            total = total + d * d
+        variance[j] = total / (n - 1)
+    ratio = 1.0
+    for first, std in ((0, force_std), (3, moment_std)):
+        if std > 0.0:
+            part = ((variance[first] + variance[first + 1]) + variance[first + 2]) / 3
+            r = part / (std * std)
+            ratio = r if r > ratio else ratio  # max(ratio, r), as Python takes it
+    return n / ratio
+
+
+@kernel()
+def _hold_edge_std(readings, parameters):
+    """``predicted_edge_std`` of checked (n, 6) readings (n >= 1) and ``TouchSensor``'s
+    ``contact_parameters``."""
+    count = _effective_readings(readings, parameters[4], parameters[5])
+    out = contact_core(
+        _column_sums(readings) / readings.shape[0], parameters, 1.0 / math.sqrt(count)
+    )
+    if out[contact.STATUS] != contact.FOUND:
+        return contact.EDGE_STD_UNOBSERVABLE
+    return out[contact.EDGE_STD]
 
 
 @dataclass(frozen=True)

@@ -40,7 +40,7 @@ import math
 
 import numpy as np
 
-from tactile_gym.sim._jit import kernel
+from tactile_gym._jit import kernel
 from tactile_gym.sim._pose_kernels import advance_into, joint_frame, matvec_entry, sum_fma
 
 BOX = 0

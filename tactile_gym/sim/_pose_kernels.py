@@ -14,7 +14,7 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-from tactile_gym.sim._jit import kernel
+from tactile_gym._jit import kernel
 
 #: The joint kinds, as the last row of a link array holds them (``HingedObject.link``, row 5,
 #: column 0); a link array of five rows is a revolute link's.

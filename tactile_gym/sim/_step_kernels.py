@@ -27,8 +27,8 @@ import math
 
 import numpy as np
 
+from tactile_gym._jit import kernel
 from tactile_gym.sim import _kernels
-from tactile_gym.sim._jit import kernel
 from tactile_gym.sim._pose_kernels import FIXED, PRISMATIC, REVOLUTE, advance_into, joint_frame
 
 #: Entries of ``hinge`` (module docstring); ``WEIGHT`` is the first of three.
