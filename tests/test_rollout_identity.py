@@ -1,9 +1,11 @@
-"""Refactors keep behaviour: fixed-seed rollouts of every v2 and v1 id match a recording.
+"""Refactors keep behaviour: fixed-seed rollouts of every v2 and v1 id, and of the v0 joint
+ids, match a recording.
 
-``tests/data/rollouts.npz`` holds, for every v2 and v1 id (``LEGACY_ENV_IDS``)
-and two seeds, the scripted policy's and a random policy's episodes (observations, rewards,
-terminations and the errors in ``info``): the v1 ids' recorded on main before the probing
-stack was restructured, the v2 ids' before the perception layer moved out of the env. A
+``tests/data/rollouts.npz`` holds, for every v2 and v1 id (``LEGACY_ENV_IDS``) and v0 joint
+id (``LEGACY_JOINT_ENV_IDS``) and two seeds, the scripted policy's and a random policy's
+episodes (observations, rewards, terminations and the errors in ``info``): the v1 ids'
+recorded on main before the probing stack was restructured, the v2 ids' before the
+perception layer moved out of the env, the v0 joint ids' on main before their v1. A
 change that moves them on purpose re-records them (``PYTHONPATH=. python
 tests/test_rollout_identity.py``) and names the change in its commit and in the ids' Version
 History.
@@ -18,8 +20,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from agents.joint_scripted import joint_policy
 from agents.scripted import scripted_policy
-from tactile_gym import LEGACY_ENV_IDS
+from tactile_gym import LEGACY_ENV_IDS, LEGACY_JOINT_ENV_IDS
 
 RECORDING = Path(__file__).parent / "data" / "rollouts.npz"
 SEEDS = (0, 1)
@@ -38,7 +41,9 @@ def rollout(env_id: str, policy: str, seed: int) -> dict[str, np.ndarray]:
     env = gym.make(env_id)
     primitive = env.action_space.shape == (3,)
     obs, info = env.reset(seed=seed)
-    scripted = scripted_policy(env) if policy == "scripted" else None
+    scripted = None
+    if policy == "scripted":
+        scripted = joint_policy(env) if env_id in LEGACY_JOINT_ENV_IDS else scripted_policy(env)
     if scripted is not None:
         scripted.reset()
     env.action_space.seed(seed)
@@ -64,7 +69,7 @@ def rollout(env_id: str, policy: str, seed: int) -> dict[str, np.ndarray]:
 
 CASES = [
     (env_id, policy, seed)
-    for env_id in LEGACY_ENV_IDS
+    for env_id in LEGACY_ENV_IDS + LEGACY_JOINT_ENV_IDS
     for policy in ("scripted", "random")
     for seed in SEEDS
 ]
