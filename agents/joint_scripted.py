@@ -214,7 +214,8 @@ class JointProber:
         beyond the edge, in the face plane; the frame's when None). None after
         ``retries`` probes without it."""
         offset = first
-        for _ in range(self.config.retries):
+        # A press held back until a second one along its line agrees takes two probes more.
+        for _ in range(self.config.retries + (2 if self.config.confirm_step else 0)):
             out = yield from self._probe(offset)
             if out.measured and (edge is None or out.last.edge @ edge > math.cos(math.pi / 4)):
                 return out
@@ -232,26 +233,27 @@ class JointProber:
         if not out.touching:
             return -0.003 * outward  # pressed into nothing: beyond the edge, come back
         normal = frame.normal
+        tilt = out.contact.tilt
+        if cfg.confirm_step and ContactObs.read(out.obs).has_edge and tilt >= hinge.min_tilt:
+            # Cut by an edge as a measurement must be, but not measured: most likely held
+            # back until a press along its line agrees (or refused for another reason).
+            # Press along the edge and back in turn, first away from a known end of it.
+            along = np.cross(normal, outward)
+            along /= norm(along)
+            if self._away is not None and float(along @ self._away) < 0.0:
+                along = -along
+            self._shifts += 1
+            return (cfg.confirm_step if self._shifts % 2 else -cfg.confirm_step) * along
         centre = out.centre - ((out.centre - out.contact.point) @ normal) * normal
         off = out.contact.point - centre
         if float(off @ outward) < -0.0025:
             # The contact sits at the edge, inside the finger's centre: the finger is beyond
             # the edge, which the contact locates.
             return float(off @ outward) * outward + cfg.beyond * outward
-        tilt = out.contact.tilt
         if tilt < hinge.min_tilt:
             step = (hinge.target_tilt - tilt) / hinge.tilt_per_metre
             return float(np.clip(step, 0.0005, 0.003)) * outward
-        if not cfg.confirm_step:
-            return np.zeros(3)  # refused for another reason: press again where it was
-        # Held back until a press along its line agrees (or refused for another reason):
-        # press along the edge and back in turn, first away from a known end of it.
-        along = np.cross(normal, outward)
-        along /= norm(along)
-        if self._away is not None and float(along @ self._away) < 0.0:
-            along = -along
-        self._shifts += 1
-        return (cfg.confirm_step if self._shifts % 2 else -cfg.confirm_step) * along
+        return np.zeros(3)  # refused for another reason: press again where it was
 
     # ------------------------------------------------------------------ the episode
     def _find_edge(self) -> Generator[np.ndarray, dict, _Outcome]:
