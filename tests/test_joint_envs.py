@@ -200,7 +200,7 @@ def _replay(samples, config: JointProbeConfig) -> JointPipeline:
 def test_the_labels_come_from_the_stream_alone():
     """A robot's log of the same samples gets the same labels and the same estimate: the
     labels are made from readings and poses, as the env hands them to the pipeline."""
-    env = gym.make(PLANAR, families=("slider",), max_primitives=14)
+    env = gym.make(PLANAR, families=("slider",), max_primitives=24)
     samples = []
     env.unwrapped.pipeline.recorder = samples.append
     policy = joint_policy(env)
