@@ -150,23 +150,15 @@ try:
     from gymnasium.envs.registration import register
 except ImportError:  # perception alone, on a robot without Gymnasium: nothing to register
     register = None
-for _version, _extra in _VERSIONS if register else ():
-    for _name, (_entry, _vector_entry), _kwargs in _TASKS:
-        register(
-            id=f"tactile_gym/{_name}-{_version}",
-            entry_point=_entry,
-            vector_entry_point=_vector_entry,
-            kwargs={**_kwargs, **_extra},
-        )
-
-for _version, _extra in _JOINT_VERSIONS if register else ():
-    for _name, (_entry, _vector_entry), _kwargs in _JOINT_TASKS:
-        register(
-            id=f"tactile_gym/{_name}-{_version}",
-            entry_point=_entry,
-            vector_entry_point=_vector_entry,
-            kwargs={**_kwargs, **_extra},
-        )
+for _versions, _tasks in ((_VERSIONS, _TASKS), (_JOINT_VERSIONS, _JOINT_TASKS)) if register else ():
+    for _version, _extra in _versions:
+        for _name, (_entry, _vector_entry), _kwargs in _tasks:
+            register(
+                id=f"tactile_gym/{_name}-{_version}",
+                entry_point=_entry,
+                vector_entry_point=_vector_entry,
+                kwargs={**_kwargs, **_extra},
+            )
 
 __all__ = [
     "ENV_IDS",
