@@ -12,6 +12,12 @@ approach, then perfectly still, among plain presses at random places on both lin
 the gate's preload rule (``GateConfig.preload_rule``, ``docs/design.md`` 7.2); honest presses
 on a long edge must still get in.
 
+On the joint ids the pipeline holds a press back until a second press along its line agrees
+(``docs/design.md`` 7.12): there the hold-still and honest adversaries press in pairs along a
+line, an attack counts the presses that passed the gate (held back or not), the hold-still
+attack runs 150 episodes and random primitives move with the HingeProbe ids' reach. The v0
+joint ids, whose pipeline takes every press, are known failures.
+
 The full attacks (60 episodes per id) are ``slow``; the default run keeps short ones.
 ``python -m pytest -m slow tests/test_gate_adversarial.py -n 0 -s`` prints the P95 figures.
 """

@@ -292,8 +292,9 @@ class JointPipeline(MeasurementPipeline):
             line.held = [h for h in line.held if h is not partner]
             config, held, record = partner
             self._enter(held, line, config)
-            old = self.presses[record]
-            self.presses[record] = PressRecord(old.time, True, "", "")
+            if record < len(self.presses):  # a press offered outside ``step`` has none
+                old = self.presses[record]
+                self.presses[record] = PressRecord(old.time, True, "", "")
             self._enter(m, line, here)
             return (held, m)
         if self._consistent(m, line):
