@@ -65,8 +65,8 @@ _TASKS = (
 )
 
 # The joint ids (issue 28): the joint type unknown, each reset drawing a family of any joint;
-# on the v3 ids' contact step and calibrated covariance (docs/design.md 7.12). Their figures and
-# gate attacks were measured with the v2 press; the adaptive press is not measured on them yet.
+# on the v3 ids' contact step and calibrated covariance, with the v2 press (the adaptive press,
+# measured on v1, costs the blocks' typing: docs/design.md 7.12).
 _JOINT_PLANAR = {"families": ("scissors", "slider", "block"), "estimator": "planar"}
 _JOINT_3D = {"families": ("door", "tilted", "drawer", "tilted_drawer", "block"), "estimator": "3d"}
 _JOINT_SIX_D = (

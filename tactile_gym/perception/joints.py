@@ -36,9 +36,23 @@ must lie on it (within ``line_tolerance`` plus ``line_sigmas`` predicted sigmas)
 the estimate finds a hinge unlikely (``turn_probability``), the line keeps its direction
 from one configuration to the next, within the angle test's tolerance. A corner, whose false
 edge lies between its two edges' directions, fails the first or the third; another edge of
-the same direction fails the second. The estimate the pipeline keeps as ``estimate`` is the revolute
-model's axis (the prior's before a fit): what the render draws, and the axis a revolute
-reading of the data gives; the joint-type estimate is ``joint_estimate``.
+the same direction fails the second.
+
+**Held presses** (``LabelConfig.confirm_spacing``; off on the v0 joint ids). No single press
+tells an edge from a corner of its face (a corner's false edge is one edge turned toward the
+other), but its line does: a press enters the estimate only once it is consistent with its
+line. At its configuration, a second press on the line at least ``confirm_spacing`` away
+whose chord with it lies along both presses' edges (within ``confirm_angle`` plus the
+chord's own error) confirms both, and both enter; a press on a line that took a press at
+this configuration already enters if it lies on it (the same-edge test); at a new
+configuration, a press on a line confirmed before enters if it keeps the line's direction
+(a slide, or no motion) or, a hinge likely, its distance from the estimated axis and its
+angle to it. Until then it is held back, its record refused with rule ``unconfirmed`` (made
+an acceptance when it enters). ``docs/design.md`` 7.12 gives the measurements.
+
+The estimate the pipeline keeps as ``estimate`` is the revolute model's axis (the prior's
+before a fit): what the render draws, and the axis a revolute reading of the data gives; the
+joint-type estimate is ``joint_estimate``.
 
 NumPy and SciPy only. World frame, metres, newtons, radians, seconds.
 """
