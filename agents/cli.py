@@ -39,9 +39,12 @@ import yaml
 import tactile_gym
 
 #: Every id the commands take: the current ids, the joint ids (which joint is it), and the
-#: legacy ones that committed models use.
+#: legacy ones that committed models use (the joint ids' v0 among them: models train on it).
 KNOWN_ENV_IDS: tuple[str, ...] = (
-    tactile_gym.ENV_IDS + tactile_gym.JOINT_ENV_IDS + tactile_gym.LEGACY_ENV_IDS
+    tactile_gym.ENV_IDS
+    + tactile_gym.JOINT_ENV_IDS
+    + tactile_gym.LEGACY_ENV_IDS
+    + tactile_gym.LEGACY_JOINT_ENV_IDS
 )
 #: The env trained and evaluated when none is named.
 DEFAULT_ENV_ID = tactile_gym.ENV_IDS[0]

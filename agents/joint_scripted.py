@@ -34,6 +34,7 @@ policy picks it or ``agents.scripted.scripted_policy``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Generator
 from dataclasses import dataclass
@@ -57,6 +58,7 @@ from tactile_gym.estimation import OUTCOMES
 from tactile_gym.perception.gate import line_distance
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.spatial import quaternion_to_matrix
+from tactile_gym.vec3 import norm
 
 from .scripted import Policy, PrimitiveProber, ProberConfig, SkillProber
 
@@ -91,6 +93,11 @@ class JointProberConfig:
             edge (the second ring's is twice that), m.
         edge_tilt: least tilt at which a reading's edge steers the first edge's search,
             rad.
+        confirm_step: 0: a probe of an edge that pressed it well but was not measured is
+            pressed again where it was. Else (the v1 joint ids' pipeline holds a press back
+            until a second one along its line agrees: ``LabelConfig.confirm_spacing``) the
+            next probes move this far along the edge and back, in turn (first away from
+            the end the protocol knows, if any), m.
         hinge: the hinge protocol's parameters (``ProberConfig``).
     """
 
@@ -107,6 +114,7 @@ class JointProberConfig:
     settle_probes: int = 5
     ring: float = 0.005
     edge_tilt: float = math.radians(1.0)
+    confirm_step: float = 0.0
     hinge: ProberConfig = ProberConfig()
 
 
@@ -151,6 +159,8 @@ class JointProber:
         """Start a new episode."""
         self._protocol: Generator[np.ndarray, dict, None] | None = None
         self.phase = "find A"
+        self._shifts = 0  # probes moved along an edge since the last measurement
+        self._away: np.ndarray | None = None  # along the edge probed, away from its known end
 
     def act(self, obs: dict) -> np.ndarray:
         """The next primitive action (3,) for a dict observation."""
@@ -189,6 +199,8 @@ class JointProber:
     def _outcome(self, obs: dict) -> _Outcome:
         count = int(round(ProgressObs.read(obs).measurements))
         measured = count > self._count
+        if measured:
+            self._shifts = 0
         self._count = count
         self._obs = obs
         return _Outcome(obs, measured, self.geometry)
@@ -202,7 +214,8 @@ class JointProber:
         beyond the edge, in the face plane; the frame's when None). None after
         ``retries`` probes without it."""
         offset = first
-        for _ in range(self.config.retries):
+        # A press held back until a second one along its line agrees takes two probes more.
+        for _ in range(self.config.retries + (2 if self.config.confirm_step else 0)):
             out = yield from self._probe(offset)
             if out.measured and (edge is None or out.last.edge @ edge > math.cos(math.pi / 4)):
                 return out
@@ -220,13 +233,23 @@ class JointProber:
         if not out.touching:
             return -0.003 * outward  # pressed into nothing: beyond the edge, come back
         normal = frame.normal
+        tilt = out.contact.tilt
+        if cfg.confirm_step and ContactObs.read(out.obs).has_edge and tilt >= hinge.min_tilt:
+            # Cut by an edge as a measurement must be, but not measured: most likely held
+            # back until a press along its line agrees (or refused for another reason).
+            # Press along the edge and back in turn, first away from a known end of it.
+            along = np.cross(normal, outward)
+            along /= norm(along)
+            if self._away is not None and float(along @ self._away) < 0.0:
+                along = -along
+            self._shifts += 1
+            return (cfg.confirm_step if self._shifts % 2 else -cfg.confirm_step) * along
         centre = out.centre - ((out.centre - out.contact.point) @ normal) * normal
         off = out.contact.point - centre
         if float(off @ outward) < -0.0025:
             # The contact sits at the edge, inside the finger's centre: the finger is beyond
             # the edge, which the contact locates.
             return float(off @ outward) * outward + cfg.beyond * outward
-        tilt = out.contact.tilt
         if tilt < hinge.min_tilt:
             step = (hinge.target_tilt - tilt) / hinge.tilt_per_metre
             return float(np.clip(step, 0.0005, 0.003)) * outward
@@ -439,7 +462,9 @@ class JointProber:
                 place = float((out.contact.point - start) @ along) + 0.001 + cfg.beyond
                 to_b = cfg.inset * inward + place * along
                 b = np.cross(frame.normal, along)  # oriented physically: interior is -along
+                self._away = inward  # B's end at A is known: probe B away from it
                 found = yield from self._measure(b, along, to_b - (out.centre - start))
+                self._away = None
                 if found is not None:
                     found.outward = along
                 return found
@@ -452,6 +477,12 @@ def joint_policy(env, config: JointProberConfig = JointProberConfig()):  # noqa:
     starts over at each episode's first observation, as ``agents.scripted`` does); pass
     ``gym.make(...)``."""
     codec = env.get_wrapper_attr("codec")
+    env_config = getattr(env.unwrapped, "control_env", env.unwrapped).config
+    spacing = env_config.label_config.confirm_spacing
+    if spacing and not config.confirm_step:
+        # The env's pipeline holds presses back (its configuration, known before touching):
+        # the next probe presses 2 mm beyond the spacing along the edge.
+        config = dataclasses.replace(config, confirm_step=spacing + 0.002)
     if env.action_space.shape == (3,):
         return Policy(JointProber(env.get_wrapper_attr("scales"), config), codec, True)
     executor = JointPrimitiveExecutor.for_env(env.unwrapped, JOINT_SCALES)

@@ -9,12 +9,21 @@ plays ``--episodes`` test episodes (seeds from ``agents.seeds.TEST_SEED``) with
    true type, success, terminations, the position and angle errors (median; P90 of the
    angle), and the primitives until the true type first reaches 0.95 (median, and the share
    of episodes that never do);
-2. per id, the confusion matrix (rows the true type, columns the most probable outcome);
+2. per id, the calibration of the revolute estimate's predicted stds on the hinges typed
+   right (``mean(error^2) / mean(std^2)`` of the final position and angle, as
+   ``benchmarks/calibration.py``'s scalar stds: 1 is honest), and the confusion matrix
+   (rows the true type, columns the most probable outcome);
 3. with ``--paired N``, the revolute families on the primitive ids against the HingeProbe
    ids' scripted baseline on the same N episodes (the same scenario draws: the v3 HingeProbe
    ids, whose physics and estimator the joint ids share, made with the joint ids' revolute
-   families and layout, both 400 control steps): the paired difference of the final
-   position errors, its mean and percentile-bootstrap 95 % interval (``agents.paired``).
+   families, layout and objects, both 400 control steps): the paired difference of the
+   final position errors, its mean and percentile-bootstrap 95 % interval
+   (``agents.paired``);
+4. with ``--presses``, each id played with the v2 press and with the adaptive one
+   (``docs/design.md`` 5.2) on the same episodes: both tables, and the paired differences of
+   the final position error (revolute) and direction error (prismatic).
+
+``--env-kwargs`` adds keywords of ``gym.make`` to every joint id.
 
 On a 6-D id a primitive is one the skill executor ran (``SkillProber``'s choices).
 """
@@ -22,6 +31,7 @@ On a 6-D id a primitive is one the skill executor ran (``SkillProber``'s choices
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -32,7 +42,10 @@ import numpy as np
 _ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(_ROOT))
 
+from adaptive_press import V3_GATE, adaptive, press_kwargs  # noqa: E402
+
 import tactile_gym  # noqa: E402
+from agents.cli import KEY_VALUE_HELP, KeyValue  # noqa: E402
 from agents.joint_scripted import joint_policy  # noqa: E402
 from agents.paired import paired_difference  # noqa: E402
 from agents.scripted import scripted_policy  # noqa: E402
@@ -88,6 +101,8 @@ def play(env_id: str, seeds, **kwargs) -> list[dict]:
                 reached = policy.count
         p = info["type_probabilities"]
         truth = int(info["joint_type"])
+        # The revolute model's axis (the pipeline's ``estimate``) and its predicted stds.
+        axis = getattr(env.unwrapped, "control_env", env.unwrapped).pipeline.estimate
         out.append(
             {
                 "seed": seed,
@@ -99,6 +114,8 @@ def play(env_id: str, seeds, **kwargs) -> list[dict]:
                 "wrong_confident": bool(np.delete(p, truth).max() > CONFIDENT),
                 "position": float(info["position_error"]),
                 "angle": float(info["angle_error"]),
+                "position_std": float(axis.position_std),
+                "angle_std": float(axis.angle_std),
                 "success": bool(info["is_success"]),
                 "terminated": bool(terminated),
                 "reached": reached,
@@ -135,6 +152,18 @@ def report(env_id: str, records: list[dict]) -> None:
             f" | {np.median(reached) if reached else float('nan'):.0f}"
             f" / {1 - len(reached) / len(rs):.1%} |"
         )
+    hinges = [r for r in records if JOINT_TYPES[r["truth"]] == "revolute" and r["correct"]]
+    if hinges:
+        # As benchmarks/calibration.py's scalar stds: mean(error^2) / mean(std^2), 1 honest.
+        ratios = []
+        for k in ("position", "angle"):
+            std2 = np.mean([r[f"{k}_std"] ** 2 for r in hinges])
+            if std2 > 0.0:  # the planar fit's direction is assumed: no angle std
+                ratios.append(f"{k} {np.mean([r[k] ** 2 for r in hinges]) / std2:.2f}")
+        print(
+            f"\nrevolute episodes typed right ({len(hinges)}): final error^2 over predicted"
+            f" std^2, {', '.join(ratios)} (1 honest)"
+        )
     confusion = np.zeros((len(JOINT_TYPES), len(OUTCOMES)), dtype=int)
     for r in records:
         confusion[r["truth"], r["best"]] += 1
@@ -157,7 +186,8 @@ def paired(joint_id: str, hinge_id: str, episodes: int, steps: int) -> None:
     common = {"families": revolute, "max_steps": steps}
     seeds = range(TEST_SEED, TEST_SEED + episodes)
     joint = play(joint_id, seeds, **common, joint_prior=prior)
-    env = gym.make(hinge_id, scenario=dict(JOINT_SCENARIO[estimator]), **common)
+    scenario = dict(JOINT_SCENARIO[estimator])
+    env = gym.make(hinge_id, scenario=scenario, object=spec.get("object", {}), **common)
     policy = scripted_policy(env)
     hinge = []
     for seed in seeds:
@@ -183,22 +213,56 @@ def paired(joint_id: str, hinge_id: str, episodes: int, steps: int) -> None:
     )
 
 
+def presses(env_id: str, seeds, env_kwargs: dict) -> None:
+    """The baseline with the v2 press and the adaptive press on the same episodes, paired."""
+    # Each press over the id's keywords (whichever press it registers), as the v3 HingeProbe
+    # ids register the adaptive one.
+    chosen = adaptive(math.degrees(V3_GATE["edge_std_target"]), V3_GATE["dwell_budget"])
+    runs = {}
+    for name, press in (("v2 press", None), ("adaptive press", chosen)):
+        kwargs = press_kwargs(env_id, press)
+        gate = {**kwargs["gate"], **env_kwargs.get("gate", {})}
+        runs[name] = play(env_id, seeds, **{**kwargs, **env_kwargs, "gate": gate})
+    for name, records in runs.items():
+        report(f"{env_id}, {name}", records)
+    v2, new = runs.values()
+    for truth, error, unit in (("revolute", "position", 1e3), ("prismatic", "angle", 57.2958)):
+        index = [i for i, r in enumerate(v2) if JOINT_TYPES[r["truth"]] == truth]
+        if len(index) < 2:
+            continue
+        ours = np.array([new[i][error] for i in index]) * unit
+        theirs = np.array([v2[i][error] for i in index]) * unit
+        d = paired_difference(ours, theirs)
+        print(
+            f"{env_id} {truth} final {error} error, adaptive against v2 press, {len(index)}"
+            f" episodes: mean {ours.mean():.2f} / {theirs.mean():.2f}, difference"
+            f" {d.mean:+.2f}, 95 % CI [{d.low:+.2f}, {d.high:+.2f}]"
+            f" ({'mm' if truth == 'revolute' else 'deg'})"
+        )
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--episodes", type=int, default=200, help="test episodes per id")
     parser.add_argument("--envs", nargs="+", default=list(tactile_gym.JOINT_ENV_IDS))
     parser.add_argument("--paired", type=int, default=0, help="paired episodes (0: none)")
+    parser.add_argument(
+        "--presses", action="store_true", help="the v2 press against the adaptive press"
+    )
+    parser.add_argument("--env-kwargs", nargs="+", action=KeyValue, default={}, help=KEY_VALUE_HELP)
     args = parser.parse_args(argv)
+    seeds = range(TEST_SEED, TEST_SEED + args.episodes)
     for env_id in args.envs:
         start = time.perf_counter()
-        records = play(env_id, range(TEST_SEED, TEST_SEED + args.episodes))
-        report(env_id, records)
+        if args.presses:
+            presses(env_id, seeds, args.env_kwargs)
+        else:
+            report(env_id, play(env_id, seeds, **args.env_kwargs))
         print(f"({time.perf_counter() - start:.0f} s)", flush=True)
     if args.paired:
-        for joint_id, hinge_id in (
-            ("tactile_gym/JointProbePrimitive-v0", "tactile_gym/HingeProbePrimitive-v3"),
-            ("tactile_gym/JointProbe3DPrimitive-v0", "tactile_gym/HingeProbe3DPrimitive-v3"),
-        ):
+        primitive = [e for e in tactile_gym.JOINT_ENV_IDS if "Primitive" in e]
+        hinge = [e for e in tactile_gym.ENV_IDS if "Primitive" in e]
+        for joint_id, hinge_id in zip(primitive, hinge, strict=True):
             paired(joint_id, hinge_id, args.paired, 400)
 
 

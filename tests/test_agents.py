@@ -407,7 +407,7 @@ def test_the_commands_take_the_joint_ids(tmp_path):
     then the model, random and the joint baseline evaluated on it."""
     pytest.importorskip("stable_baselines3")
     assert set(tactile_gym.JOINT_ENV_IDS) <= set(cli.KNOWN_ENV_IDS)
-    env_id = "tactile_gym/JointProbePrimitive-v0"
+    env_id = tactile_gym.JOINT_ENV_IDS[2]  # JointProbePrimitive, the newest
     run_dir = train.main(
         ["--algo", "ppo", "--env", env_id, "--n-timesteps", "32", "--n-envs", "1",
          "--log-folder", str(tmp_path), "--eval-freq", "0", "--checkpoint-freq", "0",

@@ -65,13 +65,14 @@ def test_an_indented_block_of_commands_is_literal():
 
 
 def test_the_env_pages_cover_every_id_once():
-    ids = [*tactile_gym.ENV_IDS, *tactile_gym.LEGACY_ENV_IDS, *tactile_gym.JOINT_ENV_IDS]
+    joint = [*tactile_gym.JOINT_ENV_IDS, *tactile_gym.LEGACY_JOINT_ENV_IDS]
+    ids = [*tactile_gym.ENV_IDS, *tactile_gym.LEGACY_ENV_IDS, *joint]
     covered = [
         env_id
         for family in tactile_docs.ENV_FAMILIES
         for env_id in ids
         if (env_id in tactile_gym.PRIMITIVE_ENV_IDS) == family.primitive
-        and (env_id in tactile_gym.JOINT_ENV_IDS) == family.joint
+        and (env_id in joint) == family.joint
     ]
     assert sorted(covered) == sorted(ids)
     classes = {tactile_docs._load(family.cls) for family in tactile_docs.ENV_FAMILIES}
@@ -121,7 +122,7 @@ def test_the_changelog_has_this_version_and_every_registered_env_version():
     versions = {i.rsplit("-", 1)[1] for i in (*tactile_gym.ENV_IDS, *tactile_gym.LEGACY_ENV_IDS)}
     for version in versions:
         assert f"**{version}**" in changelog, version
-    for env_id in tactile_gym.JOINT_ENV_IDS:
+    for env_id in (*tactile_gym.JOINT_ENV_IDS, *tactile_gym.LEGACY_JOINT_ENV_IDS):
         assert env_id.split("/")[1] in changelog, env_id
 
 

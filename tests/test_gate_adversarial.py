@@ -12,6 +12,12 @@ approach, then perfectly still, among plain presses at random places on both lin
 the gate's preload rule (``GateConfig.preload_rule``, ``docs/design.md`` 7.2); honest presses
 on a long edge must still get in.
 
+On the joint ids the pipeline holds a press back until a second press along its line agrees
+(``docs/design.md`` 7.12): there the hold-still and honest adversaries press in pairs along a
+line, an attack counts the presses that passed the gate (held back or not), the hold-still
+attack runs 150 episodes and random primitives move with the HingeProbe ids' reach. The v0
+joint ids, whose pipeline takes every press, are known failures.
+
 The full attacks (60 episodes per id) are ``slow``; the default run keeps short ones.
 ``python -m pytest -m slow tests/test_gate_adversarial.py -n 0 -s`` prints the P95 figures.
 """
@@ -25,6 +31,7 @@ import pytest
 import tactile_gym
 from tactile_gym.envs.joint_probe import JointProbeEnv
 from tactile_gym.envs.scenarios import probed_edge
+from tactile_gym.envs.skills import PrimitiveScales
 
 P95_EDGE_DEG = 5.0
 P95_DISTANCE = 0.003
@@ -195,7 +202,8 @@ class HoldStill(PressCycle):
         # top faces (their links are plates, rails, drawers and panels, whose long edges the
         # hinge's frame does not give: aimed so, the drawers' presses went into the air).
         edges = _top_edges(u) if _joint(u) else _long_edges(u)
-        k = int(rng.integers(len(edges)))
+        pair = getattr(self, "pair", None)
+        k = pair[0] if pair else int(rng.integers(len(edges)))
         start, direction, length = edges[k]
         self.normal = (
             _top_normal(u, k) if _joint(u) else u.scene.object_config.hinge_rotation()[:, 2]
@@ -204,10 +212,18 @@ class HoldStill(PressCycle):
         across_face = edges[k ^ 1][0] - start
         across_face -= (across_face @ direction) * direction
         width = float(np.linalg.norm(across_face))
-        if self.on_edge or rng.random() < 0.5:  # on a long edge, within 1 mm of it
+        if pair:  # the pair's second press: on the first's line, 6-15 mm along it
+            along = pair[1] + rng.choice([-1.0, 1.0]) * rng.uniform(0.006, 0.015)
+            across = pair[2]
+            self.pair = None
+        elif self.on_edge or rng.random() < 0.5:  # on a long edge, within 1 mm of it
             along, across = rng.uniform(0.15, 0.85) * length, rng.uniform(-1e-3, 1e-3)
         else:  # anywhere on or just off a top face: flat face, ends, sides, corners
             along, across = rng.uniform(-0.1, 1.1) * length, rng.uniform(-0.1, 1.1) * width
+        if _joint(u) and not pair:
+            # The joint ids' pipeline takes a press once a second press along its line
+            # agrees with it (docs/design.md 7.12): each press is followed by one on its line.
+            self.pair = (k, along, across)
         self.target = start + along * direction + across * across_face / width
         self.force_target = rng.uniform(3.0, 7.5)
         self.d = np.array([0.0, 0.0, -1.0])
@@ -425,11 +441,14 @@ def _padded(action, space) -> np.ndarray:
 
 def _judge(
     env, low, episodes: int, seed: int, policy, on_accept=None
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, int]:
     """Run ``policy(k)`` (a function of the observation) for episodes ``k``; return the edge
     errors (deg) and line distances (m) of every measurement ``low`` (the 6-D env) accepts
-    (each also handed to ``on_accept(low, measurement, angle, distance)`` if given)."""
-    angles, distances = [], []
+    (each also handed to ``on_accept(low, measurement, angle, distance)`` if given), and how
+    many presses passed the gate: accepted, or held back by the joint ids' pipeline until a
+    press along its line agrees (rule ``unconfirmed``, ``docs/design.md`` 7.12)."""
+    angles, distances, passed = [], [], 0
+    pipeline = getattr(low, "control_env", low).pipeline
     for k in range(episodes):
         obs, _ = env.reset(seed=seed + k)
         act = policy(k)
@@ -445,8 +464,9 @@ def _judge(
                     on_accept(low, m, angle, distance)
                 angles.append(angle)
                 distances.append(distance)
+        passed += sum(p.accepted or p.rule == "unconfirmed" for p in pipeline.presses)
     env.close()
-    return np.array(angles), np.array(distances)
+    return np.array(angles), np.array(distances), passed
 
 
 def attack(env_id: str, episodes: int, steps: int, seed: int = 0):
@@ -458,12 +478,22 @@ def attack(env_id: str, episodes: int, steps: int, seed: int = 0):
 
 
 def attack_primitives(env_id: str, episodes: int, seed: int = 0):
-    """Random primitives (with their parameters) on a primitive id; same judgement."""
+    """Random primitives (with their parameters) on a primitive id; same judgement. On the
+    joint ids a probe's random move has the HingeProbe ids' reach in metres (their
+    ``PrimitiveScales``' defaults): at the joint ids' own, 50 mm across and 80 mm along, it
+    leaves the face, and one or two presses in 50 episodes reach the gate."""
     env = gym.make(env_id, max_steps=300)
     env.action_space.seed(seed)
-    return _judge(
-        env, env.unwrapped, episodes, seed, lambda k: lambda obs: env.action_space.sample()
-    )
+    reach = np.ones(env.action_space.shape[0])
+    if _joint(env.unwrapped):
+        hinge, joint = PrimitiveScales(), env.get_wrapper_attr("scales")
+        reach[1:3] = hinge.probe_across / joint.probe_across, hinge.probe_along / joint.probe_along
+
+    def act(obs):
+        action = env.action_space.sample()
+        return action * reach if action[0] < 0.0 else action  # a probe, or a drag
+
+    return _judge(env, env.unwrapped, episodes, seed, lambda k: act)
 
 
 def hold_still_attack(
@@ -491,37 +521,50 @@ def honest_edge_presses(
         policies.append(OnEdge(env, rng))
         return policies[-1].act
 
-    angles, distances = _judge(env, env.unwrapped, episodes, seed, policy, on_accept)
+    angles, distances, _ = _judge(env, env.unwrapped, episodes, seed, policy, on_accept)
     return sum(p.presses for p in policies), len(angles), angles, distances
 
 
-def _check(angles, distances, at_least: int):
-    """The issue's bounds on what the gate let through; ``pytest -s`` prints the figures."""
-    print(
-        f"\n{len(angles)} accepted: P95 edge error {np.percentile(angles, 95):.2f} deg, "
-        f"P95 distance from the edge line {1e3 * np.percentile(distances, 95):.2f} mm"
-    )
-    assert len(angles) >= at_least, f"only {len(angles)} measurements accepted"
-    assert np.percentile(angles, 95) <= P95_EDGE_DEG, np.sort(angles)[-10:]
-    assert np.percentile(distances, 95) <= P95_DISTANCE, np.sort(distances)[-10:]
+def _check(angles, distances, passed: int, at_least: int):
+    """The issue's bounds on what the gate let through; ``pytest -s`` prints the figures.
+
+    ``at_least`` presses must have passed the gate, so that the attack tested it: on the
+    HingeProbe ids every press that passed entered the estimate (``passed`` is
+    ``len(angles)``); the joint ids' pipeline holds a press back until a second press along
+    its line agrees, which attackers that do not press pairs seldom give, and the bounds hold
+    for what entered (nothing, when nothing did; honest presses must enter:
+    ``test_honest_presses_on_an_edge_get_in``)."""
+    figures = "none entered"
+    if len(angles):
+        figures = (
+            f"P95 edge error {np.percentile(angles, 95):.2f} deg, P95 distance from the edge"
+            f" line {1e3 * np.percentile(distances, 95):.2f} mm"
+        )
+    print(f"\n{passed} passed the gate, {len(angles)} accepted: {figures}")
+    assert passed >= at_least, f"only {passed} presses passed the gate"
+    if len(angles):
+        assert np.percentile(angles, 95) <= P95_EDGE_DEG, np.sort(angles)[-10:]
+        assert np.percentile(distances, 95) <= P95_DISTANCE, np.sort(distances)[-10:]
 
 
 def test_gate_survives_a_short_attack():
-    angles, distances = attack("tactile_gym/HingeProbe-v1", episodes=12, steps=120)
+    angles, distances, passed = attack("tactile_gym/HingeProbe-v1", episodes=12, steps=120)
     # Some adversaries do make honest presses; what gets through must be right.
-    _check(angles, distances, at_least=3)
+    _check(angles, distances, passed, at_least=3)
 
 
-SIX_D = [e for e in tactile_gym.ENV_IDS + tactile_gym.JOINT_ENV_IDS if "Primitive" not in e]
-JOINT_PRIMITIVE = [e for e in tactile_gym.JOINT_ENV_IDS if "Primitive" in e]
+_JOINT = tactile_gym.JOINT_ENV_IDS + tactile_gym.LEGACY_JOINT_ENV_IDS
+SIX_D = [e for e in tactile_gym.ENV_IDS + _JOINT if "Primitive" not in e]
+JOINT_PRIMITIVE = [e for e in _JOINT if "Primitive" in e]
 PRIMITIVE = [e for e in tactile_gym.ENV_IDS if "Primitive" in e] + JOINT_PRIMITIVE
-#: Known failures, strict (a fix turns them into failures, to be taken off here): on the joint
-#: ids, presses within a patch's radius of a corner and on faces narrower than the patch get
-#: past the gate, and honest presses on those faces are off by more than 5 deg
-#: (docs/design.md 7.12, "Open: the gate on the joint ids").
+#: Known failures, strict (a fix turns them into failures, to be taken off here): on the v0
+#: joint ids, presses within a patch's radius of a corner and on faces narrower than the patch
+#: get past the gate, and honest presses on those faces are off by more than 5 deg
+#: (docs/design.md 7.12, "The gate on the joint ids"); v1 is their fix.
 JOINT_GATE_OPEN = pytest.mark.xfail(
-    strict=True, reason="the gate does not yet survive corner presses on the joint ids (7.12)"
+    strict=True, reason="the v0 joint ids let corner presses in (docs/design.md 7.12)"
 )
+_V0 = list(tactile_gym.LEGACY_JOINT_ENV_IDS)
 
 
 def _known(env_ids: list[str], failing: list[str]) -> list:
@@ -529,47 +572,52 @@ def _known(env_ids: list[str], failing: list[str]) -> list:
 
 
 def test_gate_survives_a_short_attack_on_a_joint_id():
-    angles, distances = attack("tactile_gym/JointProbe-v0", episodes=12, steps=120)
-    _check(angles, distances, at_least=3)
+    angles, distances, passed = attack(tactile_gym.JOINT_ENV_IDS[0], episodes=12, steps=120)
+    _check(angles, distances, passed, at_least=3)
 
 
 def test_gate_refuses_a_short_hold_still_attack():
-    angles, distances = hold_still_attack("tactile_gym/HingeProbe-v1", episodes=20, steps=300)
+    angles, distances, passed = hold_still_attack(
+        "tactile_gym/HingeProbe-v1", episodes=20, steps=300
+    )
     # Honest presses (``HoldStill`` itself) are among them: some get in, and are right.
-    _check(angles, distances, at_least=3)
+    _check(angles, distances, passed, at_least=3)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("env_id", _known(SIX_D, list(tactile_gym.JOINT_ENV_IDS)))
+@pytest.mark.parametrize("env_id", _known(SIX_D, _V0))
 def test_gate_refuses_the_hold_still_attack(env_id):
-    angles, distances = hold_still_attack(env_id, episodes=60, steps=400, seed=100)
-    _check(angles, distances, at_least=10)
+    # The joint ids' faces are smaller, and some tilted: fewer random presses cut one edge
+    # along the face's normal, and the attack needs more episodes to test the gate.
+    episodes = 150 if env_id in _JOINT else 60
+    angles, distances, passed = hold_still_attack(env_id, episodes, steps=400, seed=100)
+    _check(angles, distances, passed, at_least=10)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("env_id", _known(SIX_D, list(tactile_gym.JOINT_ENV_IDS)))
+@pytest.mark.parametrize("env_id", _known(SIX_D, _V0))
 def test_honest_presses_on_an_edge_get_in(env_id):
     pressed, accepted, angles, distances = honest_edge_presses(env_id, 30, 400, seed=200)
     print(f"\n{accepted} of {pressed} honest presses on an edge accepted")
     # The gate refuses honest presses whose tilt or force is too small (a 3-4 N press, the
     # contact 1 mm inside the face); the rest must get in and be right.
     assert accepted >= 0.3 * pressed
-    _check(angles, distances, at_least=10)
+    _check(angles, distances, accepted, at_least=10)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("env_id", _known(SIX_D, ["tactile_gym/JointProbe3D-v0"]))
 def test_gate_survives_the_full_attack(env_id):
-    angles, distances = attack(env_id, episodes=60, steps=250, seed=100)
+    angles, distances, passed = attack(env_id, episodes=60, steps=250, seed=100)
     # On tilted faces most adversarial presses are oblique and refused: fewer get through.
-    _check(angles, distances, at_least=15)
+    _check(angles, distances, passed, at_least=15)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("env_id", _known(PRIMITIVE, JOINT_PRIMITIVE))
+@pytest.mark.parametrize("env_id", _known(PRIMITIVE, [e for e in _V0 if "Primitive" in e]))
 def test_gate_survives_random_primitives(env_id):
-    angles, distances = attack_primitives(env_id, episodes=50, seed=100)
-    _check(angles, distances, at_least=20)
+    angles, distances, passed = attack_primitives(env_id, episodes=50, seed=100)
+    _check(angles, distances, passed, at_least=20)
 
 
 def by_kind(steps: int = 400, seed: int = 100) -> None:
@@ -581,7 +629,7 @@ def by_kind(steps: int = 400, seed: int = 100) -> None:
         for rule in (False, True):
             runs = [("all", HOLD_STILL, 60)] + [(k.__name__, (k,), 20) for k in HOLD_STILL[1:]]
             for name, kinds, episodes in runs:
-                angles, distances = hold_still_attack(
+                angles, distances, _ = hold_still_attack(
                     env_id, episodes, steps, seed, kinds, gate={"preload_rule": rule}
                 )
                 print(

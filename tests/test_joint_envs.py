@@ -14,16 +14,16 @@ from tactile_gym.envs.joint_config import JointProbeConfig
 from tactile_gym.envs.joint_task import JointStepFacts, JointTypeTask
 from tactile_gym.envs.task import TaskConfig
 from tactile_gym.estimation import JOINT_TYPES, OUTCOMES, JointTypeEstimator
-from tactile_gym.perception import JointPipeline
+from tactile_gym.perception import JointPipeline, LabelConfig, Sample
 from tactile_gym.sensing import FingertipGeometry
 
-PLANAR, SPATIAL = "tactile_gym/JointProbePrimitive-v0", "tactile_gym/JointProbe3DPrimitive-v0"
+PLANAR, SPATIAL = (e for e in tactile_gym.JOINT_ENV_IDS if "Primitive" in e)
 
 
 # --------------------------------------------------------------------------- bad input
 
 
-@pytest.mark.parametrize("env_id", ["tactile_gym/HingeProbe-v2", "tactile_gym/JointProbe-v0"])
+@pytest.mark.parametrize("env_id", ["tactile_gym/HingeProbe-v2", tactile_gym.JOINT_ENV_IDS[0]])
 def test_an_unknown_family_names_itself_and_the_allowed_ones(env_id):
     with pytest.raises(ValueError, match=r"families.*'drawr'") as error:
         gym.make(env_id, families=("scissors", "drawr"))
@@ -159,6 +159,20 @@ def test_info_says_the_true_types_errors_and_e(env_id):
     env.close()
 
 
+def test_the_v1_faces_are_at_least_17_mm_wide_and_v0_keeps_its_own():
+    """v1 widens the faces narrower than a contact patch (docs/design.md 7.12): the door and
+    its frame, the slider's rail; v0 keeps its objects."""
+    widths = {"door": lambda c: (c.free_link_size[1], c.fixed_link_size[1]),
+              "slider": lambda c: (c.fixed_link_size[0],)}  # fmt: skip
+    for name, family in (("JointProbe3D", "door"), ("JointProbe", "slider")):
+        for version, wide in (("v1", True), ("v0", False)):
+            env = gym.make(f"tactile_gym/{name}-{version}", families=(family,))
+            env.reset(seed=0)
+            face = min(widths[family](env.unwrapped.scene.object_config))
+            assert (face >= 0.017) if wide else (face <= 0.010), (name, version, face)
+            env.close()
+
+
 # --------------------------------------------------------------------------- labels
 
 
@@ -186,7 +200,7 @@ def _replay(samples, config: JointProbeConfig) -> JointPipeline:
 def test_the_labels_come_from_the_stream_alone():
     """A robot's log of the same samples gets the same labels and the same estimate: the
     labels are made from readings and poses, as the env hands them to the pipeline."""
-    env = gym.make(PLANAR, families=("slider",), max_primitives=14)
+    env = gym.make(PLANAR, families=("slider",), max_primitives=24)
     samples = []
     env.unwrapped.pipeline.recorder = samples.append
     policy = joint_policy(env)
@@ -230,7 +244,7 @@ def test_the_same_edge_test_keeps_a_corner_out_of_a_line():
     assert pipeline._line_of(m([0.02, 0.03, 0], [0.01, 1, 0])).label == 1
 
 
-def _replay_stub() -> JointPipeline:
+def _replay_stub(labels: LabelConfig = LabelConfig()) -> JointPipeline:  # noqa: B008
     config = JointProbeConfig(physics="v3")
     pipeline = JointPipeline(
         FingertipGeometry(),
@@ -238,11 +252,70 @@ def _replay_stub() -> JointPipeline:
         config.skin_config.normal_stiffness,
         config.gate_config,
         JointTypeEstimator("planar"),
+        labels,
     )
-    from tactile_gym.perception import Sample
-
     pipeline.reset(Sample(0.0, np.zeros(6), np.array([0, 0, 0.1]), np.eye(3), tare=True))
     return pipeline
+
+
+def _press(point, edge):
+    """A measurement of 1.5 deg and 1 mm."""
+    from tactile_gym.perception.gate import Measurement
+
+    e, std = np.asarray(edge, float) / np.linalg.norm(edge), np.radians(1.5)
+    return Measurement(np.asarray(point, float), e, 1e-3, std, np.eye(3) * std**2 / 2)
+
+
+def _turned(degrees: float) -> list[float]:
+    return [np.cos(np.radians(degrees)), np.sin(np.radians(degrees)), 0.0]
+
+
+def test_a_press_is_held_until_a_press_along_its_line_agrees():
+    """With ``confirm_spacing`` a press enters once a second one at least that far along its
+    line agrees with the chord between them; a corner's false edge (15 deg off the edge it
+    lies beside) never finds one, and the presses that do enter together. Without it (v0)
+    every press enters at once."""
+    assert [len(_replay_stub()._admit(_press([0, 0, 0], [1, 0, 0]))) for _ in range(2)] == [1, 1]
+    pipeline = _replay_stub(LabelConfig(confirm_spacing=0.006))
+    corner = _press([0.0, 0.0, 0.0], _turned(15.0))
+    assert pipeline._admit(corner) == ()
+    assert pipeline.gate.last_rule == "unconfirmed"
+    near = _press([0.003, 0.0, 0.0], [1, 0, 0])  # agrees, but only 3 mm along
+    assert pipeline._admit(near) == ()
+    good = _press([0.012, 0.0002, 0.0], _turned(1.0))  # the chord to the corner: 15 deg off
+    entered = pipeline._admit(good)
+    assert [m is p for m, p in zip(entered, (near, good), strict=True)] == [True, True]
+    assert len(pipeline.measurement_labels) == 2
+    assert pipeline.estimator.n_measurements == 2
+    # On a line that took a press at this configuration, a press that lies on it enters.
+    assert len(pipeline._admit(_press([0.02, 0.0, 0.0], [1, 0, 0]))) == 1
+
+
+def test_a_held_press_that_enters_is_recorded_as_accepted():
+    """The pipeline's press records: a held press reads ``unconfirmed`` until its partner
+    comes, then accepted; the measurements and the perceived acceptance name both."""
+    pipeline = _replay_stub(LabelConfig(confirm_spacing=0.006))
+    first, second = _press([0, 0, 0], [1, 0, 0]), _press([0.01, 0, 0], [1, 0, 0])
+    for m in (first, second):
+        pipeline.gate.offer = lambda *args, m=m: [m]
+        pipeline.step(
+            Sample(len(pipeline.presses) + 1.0, np.zeros(6), np.array([0, 0, 0.1]), np.eye(3))
+        )
+    assert [p.accepted for p in pipeline.presses] == [True, True]
+    assert pipeline.measurements == [first, second]
+
+
+def test_a_press_at_a_new_configuration_enters_if_it_keeps_its_lines_direction():
+    """At a new configuration a press on a line confirmed before enters alone when it keeps
+    the line's direction (a slide, or a link that did not move); a turned one waits for a
+    partner (a hinge whose axis is not known yet)."""
+    pipeline = _replay_stub(LabelConfig(confirm_spacing=0.006))
+    pipeline._admit(_press([0, 0, 0], [1, 0, 0]))
+    assert len(pipeline._admit(_press([0.01, 0, 0], [1, 0, 0]))) == 2
+    pipeline.configuration = 1
+    assert len(pipeline._admit(_press([0.005, 0.004, 0], [1, 0, 0]))) == 1  # slid 4 mm
+    pipeline.configuration = 2
+    assert pipeline._admit(_press([0.005, 0.004, 0], _turned(20.0))) == ()
 
 
 # --------------------------------------------------------------------------- the baseline

@@ -28,6 +28,7 @@ from scipy.stats import chi2
 from tactile_gym.estimation import (
     FLAGS,
     OUTCOMES,
+    AxisPrior,
     JointTypeEstimator,
     JointTypePrior,
     PrismaticModel,
@@ -539,3 +540,45 @@ def test_false_confidence_rate(mode: str) -> None:
                 total += 1
     assert unflagged_wrong == 0
     assert wrong <= 0.01 * total, (wrong, total)
+
+
+#: Six presses of a door turning about a vertical axis at (-1.5, 101.7) mm (the v1
+#: JointProbe3D id's scripted baseline, seed 1000039): (point m, edge, edge std rad, line,
+#: configuration); two at the first configuration, then one per turn.
+_DOOR = (
+    ((-0.058656, 0.049761, 0.196562), (-0.642586, -0.766210, 0.002406), 0.043997, 0, 0),
+    ((-0.063860, 0.043814, 0.196561), (-0.617893, -0.786261, 0.001274), 0.024250, 0, 0),
+    ((-0.051503, 0.034267, 0.196552), (-0.533035, -0.846093, -0.000703), 0.021971, 0, 1),
+    ((-0.033749, 0.025941, 0.196614), (-0.259930, -0.965625, 0.002175), 0.027968, 0, 2),
+    ((-0.014982, 0.021542, 0.196553), (-0.079116, -0.996865, -0.000395), 0.021544, 0, 3),
+    ((0.004648, 0.020350, 0.196600), (0.221906, -0.975064, 0.002946), 0.026771, 0, 4),
+)
+
+
+@pytest.mark.parametrize("restart", [False, True])
+def test_a_fit_held_in_a_wrong_minimum_is_restarted(restart: bool) -> None:
+    """Fed online, the door's revolute fit, warm-started from its early estimates, stays in
+    a wrong minimum (chi2 in the thousands), every model fails and "none" wins; a fresh fit
+    of the same presses passes. ``restart_misfits`` refits a misfit from scratch."""
+    prior = JointTypePrior(
+        type_probabilities=(0.2, 0.4, 0.4),
+        axis=AxisPrior(
+            pin=np.array([-0.000176, 0.099757, 0.173931]),
+            pin_cov=np.diag([3.31e-05, 3.43e-05, 1.45e-03]),
+            direction=np.array([-0.00742, -0.00203, 0.99997]),
+            angle_std=0.2597,
+        ),
+        travel_range=0.12,
+    )
+    online = JointTypeEstimator("3d", prior, covariance="calibrated", restart_misfits=restart)
+    fresh = JointTypeEstimator("3d", prior, covariance="calibrated")
+    for i, (point, edge, edge_std, line, config) in enumerate(_DOOR):
+        for estimator in (online, fresh):
+            estimator.add(np.array(point), np.array(edge), 1e-3, edge_std, line=line, config=config)
+        if i >= 1:  # the pair entered together
+            got = online.estimate()
+    assert fresh.estimate().joint_type == "revolute"
+    assert fresh.estimate().models["revolute"].chi2 < 30.0
+    assert got.joint_type == ("revolute" if restart else "none")
+    if not restart:
+        assert got.models["revolute"].chi2 > 1000.0

@@ -8,11 +8,13 @@ change that moves them on purpose re-records them (``PYTHONPATH=. python
 tests/test_rollout_identity.py``, ``--v3`` for the current ids) and names the change in its
 commit and in the ids' Version History.
 
-``tests/data/rollouts_v3.npz`` holds the same for the current ids (``ENV_IDS``) and the joint
-ids (``JOINT_ENV_IDS``), which models are trained on: the scripted policy's episodes for three
-seeds and a random policy's for one, with every entry of ``info``, recorded on main e83ad86
-before the step's Python was cut (issue 27, item 3). They must match to the bit: a speed-up
-that moves a bit of them is a new version. Re-record them the same way, on purpose only.
+``tests/data/rollouts_v3.npz`` holds the same for the current ids (``ENV_IDS``) and every
+joint id (``JOINT_ENV_IDS`` and ``LEGACY_JOINT_ENV_IDS``), which models are trained on: the
+scripted policy's episodes for three seeds and a random policy's for one, with every entry of
+``info``; the v3 and v0 joint ids' recorded on main e83ad86 before the step's Python was cut
+(issue 27, item 3), the v1 joint ids' when they were registered. They must match to the bit:
+a speed-up that moves a bit of them is a new version. Re-record them the same way, on purpose
+only; ``--v3 <ids>`` re-records only those ids' episodes.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import numpy as np
 import pytest
 
 from agents.policies import make_policy
-from tactile_gym import ENV_IDS, JOINT_ENV_IDS, LEGACY_ENV_IDS
+from tactile_gym import ENV_IDS, JOINT_ENV_IDS, LEGACY_ENV_IDS, LEGACY_JOINT_ENV_IDS
 
 RECORDING = Path(__file__).parent / "data" / "rollouts.npz"
 RECORDING_V3 = Path(__file__).parent / "data" / "rollouts_v3.npz"
@@ -87,7 +89,7 @@ CASES = [
 ]
 CASES_V3 = [
     (env_id, policy, seed)
-    for env_id in (*ENV_IDS, *JOINT_ENV_IDS)
+    for env_id in (*ENV_IDS, *JOINT_ENV_IDS, *LEGACY_JOINT_ENV_IDS)
     for policy, seeds in (("scripted", (0, 1, 2)), ("random", (0,)))
     for seed in seeds
 ]
@@ -122,10 +124,22 @@ def test_current_rollout_matches_recording_to_the_bit(env_id, policy, seed):
 
 def record() -> None:
     """Record the v2 and v1 ids' rollouts (``RECORDING``); with ``--v3``, the current and
-    joint ids' (``RECORDING_V3``)."""
+    joint ids' (``RECORDING_V3``), and with ids after it only theirs, keeping the others'."""
     current = "--v3" in sys.argv
     cases, path = (CASES_V3, RECORDING_V3) if current else (CASES, RECORDING)
+    only = sys.argv[sys.argv.index("--v3") + 1 :] if current else []
+    unknown = sorted(set(only) - {env_id for env_id, _, _ in cases})
+    if unknown:
+        raise SystemExit(f"not among the recorded ids: {unknown}")
     arrays = {}
+    if only:
+        kept = np.load(path)
+        arrays = {
+            name: kept[name]
+            for name in kept.files
+            if name.split("|")[0] not in {env_id.split("/")[-1] for env_id in only}
+        }
+        cases = [case for case in cases if case[0] in only]
     for env_id, policy, seed in cases:
         if current:
             got = rollout(env_id, policy, seed, STEPS_V3, infos=True)

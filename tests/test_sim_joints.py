@@ -267,3 +267,19 @@ def test_slides_and_fixed_links_geometry_matches_pybullet(family, travel):
         p1, d1 = obj.edge_line
         np.testing.assert_allclose(d1, d0, atol=1e-15)
         np.testing.assert_allclose(p1 - p0, travel * obj.axis, atol=1e-15)
+
+
+def test_a_familys_own_entry_in_the_overrides_applies_to_it_alone():
+    """``object`` overrides hold fields for every family or, under a family's name, for that
+    family alone: its entry over its preset, the fields for every family over both."""
+    overrides = {"door": {"free_link_size": (0.12, 0.02, 0.10)}, "free_link_mass": 0.2}
+    door = ObjectConfig.family_default("door", **overrides)
+    assert door.free_link_size == (0.12, 0.02, 0.10) and door.free_link_mass == 0.2
+    scissors = ObjectConfig.family_default("scissors", **overrides)
+    assert scissors.free_link_size == ObjectConfig.scissors().free_link_size
+    drawn = ObjectConfig.family_default("door", **overrides, free_link_size=(0.1, 0.03, 0.1))
+    assert drawn.free_link_size == (0.1, 0.03, 0.1)
+    with pytest.raises(ValueError, match="object.door must be a dict"):
+        ObjectConfig.family_default("door", door=[0.1])
+    with pytest.raises(ValueError, match="joint type"):
+        ObjectConfig.family_default("door", door={"joint_type": "fixed"})

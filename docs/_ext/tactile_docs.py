@@ -204,7 +204,7 @@ def env_page(family: EnvFamily, documented: set[str]) -> str:
     cls = _load(family.cls)
     rows = []
     ids = (
-        tactile_gym.JOINT_ENV_IDS
+        (*tactile_gym.JOINT_ENV_IDS, *tactile_gym.LEGACY_JOINT_ENV_IDS)
         if family.joint
         else (*tactile_gym.ENV_IDS, *tactile_gym.LEGACY_ENV_IDS)
     )

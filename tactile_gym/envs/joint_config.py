@@ -24,7 +24,7 @@ from tactile_gym.perception import JointPipeline, LabelConfig, StreamLimits
 from tactile_gym.sensing import FingertipGeometry
 from tactile_gym.sim import ObjectConfig
 from tactile_gym.sim.config import JOINT_TYPES, family_joint_type
-from tactile_gym.validation import build_config
+from tactile_gym.validation import build_config, check_bool
 
 __all__ = ["JOINT_SCENARIO", "TYPE_OF_JOINT", "JointProbeConfig", "joint_type_prior"]
 
@@ -60,6 +60,9 @@ class JointProbeConfig(HingeProbeConfig):
             defaults but the type probabilities (the share of each joint type among
             ``families``, at least ``TYPE_FLOOR``) and the travel range (the slides' widest
             range) come from the reset distribution (``joint_type_prior``).
+        restart_misfits: the joint-type estimator refits a model whose refit from its last
+            solution fails its goodness-of-fit test from scratch too
+            (``JointTypeEstimator``'s ``restart_misfits``; the v1 ids).
 
     The rest as ``HingeProbeConfig``, with 800 control steps (40 s: telling the joint apart
     takes pushes as well as presses), the v3 ids' contact step and calibrated covariance by
@@ -77,10 +80,12 @@ class JointProbeConfig(HingeProbeConfig):
     estimator_covariance: str = "calibrated"
     labels: dict = field(default_factory=dict)
     joint_prior: dict = field(default_factory=dict)
+    restart_misfits: bool = False
 
     def __post_init__(self) -> None:
         super().__post_init__()
         self.label_config  # noqa: B018 - built and checked once
+        check_bool("restart_misfits", self.restart_misfits)
         if not isinstance(self.joint_prior, dict) or set(self.joint_prior) & set(_DRAWN):
             raise ValueError(
                 "joint_prior must be a dict of JointTypePrior fields but"
@@ -130,6 +135,7 @@ class JointProbeConfig(HingeProbeConfig):
             prior=self.joint_type_prior(geometry),
             loss=self.estimator_loss,
             covariance=self.estimator_covariance,
+            restart_misfits=self.restart_misfits,
         )
         return JointPipeline(
             geometry,

@@ -38,8 +38,8 @@ class JointProbeEnv(HingeProbeEnv):
 
     | id                  | families                                          | estimator |
     |---------------------|---------------------------------------------------|-----------|
-    | ``JointProbe-v0``   | scissors (revolute), slider (prismatic), block    | planar    |
-    | ``JointProbe3D-v0`` | door, tilted (revolute), drawer, tilted_drawer    | 3d        |
+    | ``JointProbe-v1``   | scissors (revolute), slider (prismatic), block    | planar    |
+    | ``JointProbe3D-v1`` | door, tilted (revolute), drawer, tilted_drawer    | 3d        |
     |                     | (prismatic), block (fixed)                        |           |
 
     A slider is a plate sliding along the table beside a rail; a drawer a box sliding out of
@@ -61,7 +61,7 @@ class JointProbeEnv(HingeProbeEnv):
 
     ``HingeProbeEnv``'s: ``Box(-1, 1, (7,), float32)``, a fingertip translation (2 mm at 1)
     and rotation (3 deg at 1) per step and a tare request (``a[6] > 0.5``).
-    (``JointProbePrimitive-v0`` offers probing primitives instead.)
+    (``JointProbePrimitive-v1`` offers probing primitives instead.)
 
     ## Observation Space
 
@@ -108,7 +108,7 @@ class JointProbeEnv(HingeProbeEnv):
     45-75 % along the probed edge, -4..+3 mm across it, leaning 0-15 deg. The layout's yaw is
     drawn in -180..180 deg for every family (the scissors too, unlike ``HingeProbe``), a
     slide's travel in -10..10 mm of its range (-90..30 mm), a hinge's angle in -20..20 deg; on
-    ``JointProbe3D-v0`` the probed edge's height in 0.15-0.25 m for every family, so that the
+    ``JointProbe3D-v1`` the probed edge's height in 0.15-0.25 m for every family, so that the
     start's pose does not tell the families apart.
 
     ## Episode End
@@ -138,6 +138,11 @@ class JointProbeEnv(HingeProbeEnv):
     ## Version History
 
     * v0: initial release, on the v3 ids' contact step and calibrated covariance.
+    * v1: every face that looks up at least 17 mm wide (a door and its frame 20 mm thick, a
+      slider's rail and a drawer's panel 20 mm wide); a press enters the estimate once a
+      second press at least 6 mm along its line agrees with it (or it keeps its line's
+      direction, or its distance from a likely hinge); model fits held in a wrong minimum
+      refitted from scratch (``docs/design.md`` 7.12).
     """
 
     config_class = JointProbeConfig

@@ -227,6 +227,11 @@ class JointProbePrimitiveEnv(HingeProbePrimitiveEnv):
     ## Version History
 
     * v0: initial release, on the v3 ids' contact step and calibrated covariance.
+    * v1: every face that looks up at least 17 mm wide (a door and its frame 20 mm thick, a
+      slider's rail and a drawer's panel 20 mm wide); a press enters the estimate once a
+      second press at least 6 mm along its line agrees with it (or it keeps its line's
+      direction, or its distance from a likely hinge); model fits held in a wrong minimum
+      refitted from scratch (``docs/design.md`` 7.12).
     """
 
     executor_class = JointPrimitiveExecutor

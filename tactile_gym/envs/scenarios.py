@@ -277,12 +277,12 @@ def _drawn_prior(
 ) -> tuple[AxisPrior, tuple[float, float]]:
     """``reset_distribution_prior`` of hashable (``_frozen``) arguments."""
     scenario_config = ScenarioConfig(**dict(scenario))
+    # A family's own entry (ObjectConfig.family_default) was frozen into item pairs too.
+    overrides = {k: dict(v) if k in FAMILIES else v for k, v in object_overrides}
     rng = np.random.default_rng(0)
     pins, directions, distances = [], [], []
     for _ in range(PRIOR_SAMPLES if randomize else 1):
-        drawn = sample_scenario(
-            rng, families, scenario_config, geometry, randomize, dict(object_overrides)
-        )
+        drawn = sample_scenario(rng, families, scenario_config, geometry, randomize, overrides)
         config = drawn.object_config
         pins.append(config.joint_position)
         directions.append(config.axis)

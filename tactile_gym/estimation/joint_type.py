@@ -33,6 +33,7 @@ docs/design.md 6.10). Degenerate data is flagged, never guessed:
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 
@@ -142,6 +143,10 @@ class JointTypeEstimator:
         rule: the model-selection rule, one of ``RULES``.
         fit_alpha: level of the chi-square goodness-of-fit tests (flags ``"no_motion"``
             and ``"none_fits"``), in (0, 1).
+        restart_misfits: a model whose refit from its last solution fails its
+            goodness-of-fit test is refitted from scratch too, and the likelier fit kept (a
+            start from an early estimate can hold the fit in a wrong minimum; the v1 joint
+            ids, ``docs/design.md`` 7.12). False: the last solutions only (v0).
     """
 
     def __init__(
@@ -153,6 +158,7 @@ class JointTypeEstimator:
         rule: str = "laplace",
         fit_alpha: float = 1e-3,
         covariance: str = "independent",
+        restart_misfits: bool = False,
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -172,6 +178,7 @@ class JointTypeEstimator:
         self.rule = rule
         self.fit_alpha = float(fit_alpha)
         self.covariance = covariance
+        self.restart_misfits = bool(restart_misfits)
         self.reset()
 
     def reset(self) -> None:
@@ -291,7 +298,8 @@ class JointTypeEstimator:
             reason = "every press at one configuration: nothing moved to tell the types apart"
             return JointTypeEstimate(prior_p, None, {}, ("one_configuration",), (reason,), n)
         data = self.data
-        if not n < self._n_full * FULL_REFIT_GROWTH:
+        full = not n < self._n_full * FULL_REFIT_GROWTH
+        if full:
             for model in self._models:
                 model.reset_start()
             self._n_full = n
@@ -302,6 +310,17 @@ class JointTypeEstimator:
             "revolute": revolute_model.fit(data, rigid),
             "prismatic": prismatic_model.fit(data, rigid),
         }
+        if self.restart_misfits and not full:
+            models = list(self._models)
+            for i, name in ((1, "revolute"), (2, "prismatic")):
+                if fits[name].fit_probability >= self.fit_alpha:
+                    continue
+                fresh_model = copy.deepcopy(models[i])
+                fresh_model.reset_start()
+                fresh = fresh_model.fit(data, rigid)
+                if fresh.log_likelihood > fits[name].log_likelihood:
+                    fits[name], models[i] = fresh, fresh_model
+            self._models = tuple(models)
         log_z = np.empty(len(OUTCOMES))
         if self.rule == "laplace":
             for i, name in enumerate(JOINT_TYPES):

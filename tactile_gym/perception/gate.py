@@ -92,7 +92,9 @@ _DEG = np.pi / 180.0
 STEADY_RULES = ("spread", "trend")
 
 #: The names of the gate's rules, as a refusal reports them (``MeasurementGate.last_rule``):
-#: the press rules of the module docstring in their order, then the same-edge test's two.
+#: the press rules of the module docstring in their order, then the same-edge test's two, then
+#: the joint pipeline's press held back until its line confirms it
+#: (``tactile_gym.perception.joints``; reported like a refusal until it enters).
 GATE_RULES = (
     "steady",
     "contact",
@@ -107,6 +109,7 @@ GATE_RULES = (
     "table_clearance",
     "hinge_distance",
     "same_edge",
+    "unconfirmed",
 )
 
 

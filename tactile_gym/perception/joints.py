@@ -36,9 +36,23 @@ must lie on it (within ``line_tolerance`` plus ``line_sigmas`` predicted sigmas)
 the estimate finds a hinge unlikely (``turn_probability``), the line keeps its direction
 from one configuration to the next, within the angle test's tolerance. A corner, whose false
 edge lies between its two edges' directions, fails the first or the third; another edge of
-the same direction fails the second. The estimate the pipeline keeps as ``estimate`` is the revolute
-model's axis (the prior's before a fit): what the render draws, and the axis a revolute
-reading of the data gives; the joint-type estimate is ``joint_estimate``.
+the same direction fails the second.
+
+**Held presses** (``LabelConfig.confirm_spacing``; off on the v0 joint ids). No single press
+tells an edge from a corner of its face (a corner's false edge is one edge turned toward the
+other), but its line does: a press enters the estimate only once it is consistent with its
+line. At its configuration, a second press on the line at least ``confirm_spacing`` away
+whose chord with it lies along both presses' edges (within ``confirm_angle`` plus the
+chord's own error) confirms both, and both enter; a press on a line that took a press at
+this configuration already enters if it lies on it (the same-edge test); at a new
+configuration, a press on a line confirmed before enters if it keeps the line's direction
+(a slide, or no motion) or, a hinge likely, its distance from the estimated axis and its
+angle to it. Until then it is held back, its record refused with rule ``unconfirmed`` (made
+an acceptance when it enters). ``docs/design.md`` 7.12 gives the measurements.
+
+The estimate the pipeline keeps as ``estimate`` is the revolute model's axis (the prior's
+before a fit): what the render draws, and the axis a revolute reading of the data gives; the
+joint-type estimate is ``joint_estimate``.
 
 NumPy and SciPy only. World frame, metres, newtons, radians, seconds.
 """
@@ -46,7 +60,7 @@ NumPy and SciPy only. World frame, metres, newtons, radians, seconds.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -55,6 +69,7 @@ from tactile_gym.perception.gate import GateConfig, Measurement, line_distance, 
 from tactile_gym.perception.pipeline import (
     MeasurementPipeline,
     Perceived,
+    PressRecord,
     Sample,
     StreamLimits,
 )
@@ -86,6 +101,13 @@ class LabelConfig:
             between configurations too (within the angle test's tolerance): a turn of it
             is a hinge's, and a press that turns it otherwise is another edge's or a
             corner's.
+        confirm_spacing: 0: every press that the gate passes enters the estimate (the v0
+            joint ids). Else a press enters only once it is consistent with its line (module
+            docstring, "Held presses"): a second press on it at its configuration at least
+            this far away, m, with the chord between them along both presses' edges.
+        confirm_angle: largest angle between that chord and either press's edge, rad,
+            beyond the chord's own error: ``atan(point_std / spacing)`` (one contact lying a
+            point sigma deeper into the face than the other).
     """
 
     push_travel: float = 0.001
@@ -94,6 +116,8 @@ class LabelConfig:
     line_angle_tolerance: float = math.radians(2.0)
     line_sigmas: float = 3.0
     turn_probability: float = 0.2
+    confirm_spacing: float = 0.0
+    confirm_angle: float = math.radians(4.0)
 
     def __post_init__(self) -> None:
         check_number("labels.push_travel", self.push_travel, 0.0, 0.05, low_open=True)
@@ -102,6 +126,8 @@ class LabelConfig:
         check_number("labels.line_angle_tolerance", self.line_angle_tolerance, 0.0, math.pi / 2)
         check_number("labels.line_sigmas", self.line_sigmas, 0.0, 10.0)
         check_number("labels.turn_probability", self.turn_probability, 0.0, 1.0)
+        check_number("labels.confirm_spacing", self.confirm_spacing, 0.0, 0.05)
+        check_number("labels.confirm_angle", self.confirm_angle, 0.0, math.pi / 2, low_open=True)
 
 
 @dataclass
@@ -110,16 +136,31 @@ class LineRecord:
 
     Attributes:
         label: its label for the estimator.
-        presses: {configuration: the last measurement on it there}.
+        presses: {configuration: the last measurement on it there that entered the
+            estimate}.
+        held: the presses on it held back (``LabelConfig.confirm_spacing``), in order, each
+            with its configuration and the index of its record in the pipeline's
+            ``presses``.
     """
 
     label: int
     presses: dict[int, Measurement]
+    held: list[tuple[int, Measurement, int]] = field(default_factory=list)
 
     @property
     def last(self) -> Measurement:
-        """Its last measurement (at the latest configuration it was pressed at)."""
-        return self.presses[max(self.presses)]
+        """Its last measurement that entered the estimate (at the latest configuration it
+        was pressed at), or, if none did yet, its last held one."""
+        if self.presses:
+            return self.presses[max(self.presses)]
+        return self.held[-1][1]
+
+    def at(self, configuration: int) -> Measurement | None:
+        """Its last measurement at ``configuration``: one that entered, else a held one."""
+        if configuration in self.presses:
+            return self.presses[configuration]
+        held = [m for c, m, _ in self.held if c == configuration]
+        return held[-1] if held else None
 
 
 class JointPipeline(MeasurementPipeline):
@@ -226,8 +267,8 @@ class JointPipeline(MeasurementPipeline):
             turn = math.hypot(m.edge_std, last.edge_std)
             if _angle(m.edge, last.edge) > cfg.line_angle_tolerance + cfg.line_sigmas * turn:
                 return False
-        if here in line.presses:
-            other = line.presses[here]
+        other = line.at(here)
+        if other is not None:
             offset = line_distance(m.point, other.edge, other.point, other.edge)
             spread = math.hypot(m.point_std, other.point_std)
             turn = math.hypot(m.edge_std, other.edge_std)
@@ -251,19 +292,91 @@ class JointPipeline(MeasurementPipeline):
                 return False
         return True
 
-    def _admit(self, m: Measurement) -> bool:
+    def _admit(self, m: Measurement) -> tuple[Measurement, ...]:
         line = self._line_of(m)
         if line is None:
             line = LineRecord(len(self.lines), {})
             self.lines.append(line)
-        line.presses[self.configuration] = m
+        if not self.labels.confirm_spacing:
+            self._enter(m, line, self.configuration)
+            return (m,)
+        here = self.configuration
+        partner = self._partner(m, line)
+        if partner is not None:
+            line.held = [h for h in line.held if h is not partner]
+            config, held, record = partner
+            self._enter(held, line, config)
+            if record < len(self.presses):  # a press offered outside ``step`` has none
+                old = self.presses[record]
+                self.presses[record] = PressRecord(old.time, True, "", "")
+            self._enter(m, line, here)
+            return (held, m)
+        if self._consistent(m, line):
+            self._enter(m, line, here)
+            return (m,)
+        line.held.append((here, m, len(self.presses)))
+        # The press's record, which the base pipeline appends next, says why.
+        self.gate.last_rule = "unconfirmed"
+        self.gate.last_rejection = (
+            "held back until a press at least"
+            f" {self.labels.confirm_spacing * 1e3:.0f} mm along its line agrees with it"
+        )
+        return ()
+
+    def _enter(self, m: Measurement, line: LineRecord, config: int) -> None:
+        """Hand a press, labelled, to the estimator."""
+        line.presses[config] = m
         # The edge's error isotropic about it, of the measurement's total RMS: the shape
         # edge_cov predicts is not borne out (docs/design.md 7.12).
-        self.estimator.add(
-            m.point, m.edge, m.point_std, m.edge_std, line=line.label, config=self.configuration
-        )
-        self.measurement_labels.append((line.label, self.configuration))
-        return True
+        self.estimator.add(m.point, m.edge, m.point_std, m.edge_std, line=line.label, config=config)
+        self.measurement_labels.append((line.label, config))
+
+    def _partner(self, m: Measurement, line: LineRecord) -> tuple[int, Measurement, int] | None:
+        """The latest held press on ``line`` at this configuration that confirms ``m`` and
+        that ``m`` confirms (module docstring, "Held presses"), or None."""
+        cfg = self.labels
+        for held in reversed(line.held):
+            config, other, _ = held
+            if config != self.configuration:
+                continue
+            chord = m.point - other.point
+            spacing = norm(chord)
+            if spacing < cfg.confirm_spacing:
+                continue
+            chord = chord / spacing
+            allowed = cfg.confirm_angle + math.atan(max(m.point_std, other.point_std) / spacing)
+            if max(_line_angle(chord, m.edge), _line_angle(chord, other.edge)) <= allowed:
+                return held
+        return None
+
+    def _consistent(self, m: Measurement, line: LineRecord) -> bool:
+        """Whether ``m``, on ``line`` by the same-edge test, needs no partner: the line took a
+        press at this configuration already, which ``m`` lies on (the same-edge test); or it
+        took presses at other configurations, and ``m`` keeps the line's last direction (a
+        slide's, or a link that did not move; within the angle test's tolerance) or, a hinge
+        likely, the line's distance from the estimated axis and its angle to it."""
+        cfg = self.labels
+        if not line.presses:
+            return False
+        if self.configuration in line.presses:
+            return True
+        last = line.last
+        turn = math.hypot(m.edge_std, last.edge_std)
+        if _angle(m.edge, last.edge) <= cfg.line_angle_tolerance + cfg.line_sigmas * turn:
+            return True
+        if self.joint_estimate.probability("revolute") < cfg.turn_probability:
+            return False
+        revolute = self.joint_estimate.models.get("revolute")
+        axis = None if revolute is None else revolute.axis
+        if axis is None or axis.degenerate or not math.isfinite(axis.position_std):
+            return False
+        here = line_distance(m.point, m.edge, axis.point, axis.direction)
+        then = line_distance(last.point, last.edge, axis.point, axis.direction)
+        spread = math.sqrt(m.point_std**2 + last.point_std**2 + axis.position_std**2)
+        if abs(here - then) > cfg.line_tolerance + cfg.line_sigmas * spread:
+            return False
+        tilt = abs(_angle(m.edge, axis.direction) - _angle(last.edge, axis.direction))
+        return tilt <= cfg.line_angle_tolerance + cfg.line_sigmas * turn
 
     # ------------------------------------------------------------------ estimates
     def _estimate(self) -> AxisEstimate | None:
@@ -284,3 +397,8 @@ class JointPipeline(MeasurementPipeline):
 def _angle(a: np.ndarray, b: np.ndarray) -> float:
     """The angle between two unit directions, rad."""
     return math.acos(min(max(float(a @ b), -1.0), 1.0))
+
+
+def _line_angle(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle between two unsigned unit directions (lines), rad, in [0, pi/2]."""
+    return math.acos(min(abs(float(a @ b)), 1.0))

@@ -255,11 +255,11 @@ class MeasurementPipeline:
             self._record(sample.time, False)
         accepted = []
         for m in offered:
-            kept = self._admit(m)
-            self._record(sample.time, kept)
-            if kept:
-                self._count_direction(m.edge)
-                accepted.append(m)
+            entered = self._admit(m)
+            self._record(sample.time, any(e is m for e in entered))
+            for e in entered:
+                self._count_direction(e.edge)
+                accepted.append(e)
         self.measurements.extend(accepted)
         if accepted:
             self.estimate = self._estimate()
@@ -280,13 +280,15 @@ class MeasurementPipeline:
         return float(time) - self.tare_time
 
     # ------------------------------------------------------------------ the steps
-    def _admit(self, m: Measurement) -> bool:
+    def _admit(self, m: Measurement) -> tuple[Measurement, ...]:
         """Steps 4-5 for a measurement the gate completed: the same-edge test against the
-        current estimate, then the estimator; whether it entered."""
+        current estimate, then the estimator; the measurements that entered it, in order
+        (here ``m`` or none; a pipeline that holds presses back may release earlier ones
+        with it)."""
         if not self.gate.same_edge(m, self.estimate):
-            return False
+            return ()
         self.estimator.add(m.point, m.edge, m.point_std, m.edge_std, edge_cov=m.edge_cov)
-        return True
+        return (m,)
 
     def _estimate(self) -> AxisEstimate:
         """The estimator's current axis estimate."""

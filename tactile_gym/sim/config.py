@@ -186,8 +186,25 @@ class ObjectConfig:
 
     @classmethod
     def family_default(cls, family: str, /, **overrides: Any) -> ObjectConfig:
-        """A family's object: its preset ``configs/objects/<family>.yml`` with ``overrides``."""
+        """A family's object: its preset ``configs/objects/<family>.yml`` with ``overrides``.
+
+        ``overrides`` are ``ObjectConfig`` fields, or, under a family's name, a dict of them
+        for that family alone (the joint ids' v1 objects: ``tactile_gym/__init__.py``): the
+        family's own entry applies over its preset, then the fields given for every family
+        (a reset's drawn sizes among them); other families' entries are ignored.
+        """
         check_choice("family", family, FAMILIES)
+        own = overrides.get(family, {})
+        if not isinstance(own, dict):
+            raise ValueError(
+                f"object.{family} must be a dict of ObjectConfig fields for that family,"
+                f" got {own!r}"
+            )
+        overrides = {k: v for k, v in overrides.items() if k not in FAMILIES}
+        if "family" in own or "joint_type" in own:
+            raise ValueError(
+                f"object.{family} cannot set the family or its joint type, got {own!r}"
+            )
         if "family" in overrides:
             raise ValueError(
                 f"object.family is the name of the family drawn ({family!r}) and cannot be"
@@ -201,7 +218,7 @@ class ObjectConfig:
                 f" cannot be overridden, got {overrides['joint_type']!r}; choose the families"
                 " instead"
             )
-        return build_config(cls, {**preset, **overrides}, "object")
+        return build_config(cls, {**preset, **own, **overrides}, "object")
 
     @classmethod
     def scissors(cls, **overrides: Any) -> ObjectConfig:
