@@ -45,7 +45,8 @@ def _hypot(x, y):
     """``math.hypot(x, y)`` to the bit: CPython 3.11's ``vector_norm`` of two coordinates
     (scaled to below 1, squared exactly in two halves, summed with their rounding errors,
     one differential correction). numba's ``math.hypot`` is libm's, which differs in the
-    last bit for about one pair in 700."""
+    last bit for about one pair in 700. Other CPython versions compute ``math.hypot``
+    otherwise; this stays 3.11's on every version, so the sensing does not move with them."""
     ax, ay = abs(x), abs(y)
     big = ay if ay > ax else ax
     if math.isinf(big):
