@@ -26,6 +26,8 @@ import numpy as np
 
 __all__ = [
     "SIGN_LOOKBACK",
+    "checked_point",
+    "checked_rotation",
     "matrix_to_quaternion",
     "matrix_to_rotvec",
     "orient_edges",
@@ -160,3 +162,39 @@ def orient_edges(edges, lookback: int = SIGN_LOOKBACK) -> np.ndarray:
             rows[i] = [-v for v in rows[i]]
             e[i] *= -1.0
     return e
+
+
+def checked_rotation(value, name: str) -> np.ndarray:
+    """A (3, 3) rotation matrix, sensor to world, from a matrix or a quaternion (x, y, z, w)."""
+    r = np.asarray(value, dtype=float)
+    if r.shape == (3, 3):
+        # Scalar checks: this runs every control step, and NumPy's per-call cost would be
+        # most of it. NaN and inf fail the comparisons.
+        (a, b, c), (d, e, f), (g, h, i) = r.tolist()
+        gram = (
+            a * a + d * d + g * g - 1.0,
+            b * b + e * e + h * h - 1.0,
+            c * c + f * f + i * i - 1.0,
+            a * b + d * e + g * h,
+            a * c + d * f + g * i,
+            b * c + e * f + h * i,
+        )
+        det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+        if not (all(abs(x) <= 1e-6 for x in gram) and det > 0.0):
+            raise ValueError(f"{name} must be a rotation matrix (orthonormal, det +1), got {r}")
+        return r
+    length = float(np.linalg.norm(r)) if r.shape == (4,) else 0.0
+    if not (math.isfinite(length) and length >= 1e-9):
+        raise ValueError(
+            f"{name} must be a (3, 3) rotation matrix or a finite non-zero quaternion "
+            f"(x, y, z, w), got {r}"
+        )
+    return quaternion_to_matrix(r / length)
+
+
+def checked_point(v, name: str) -> np.ndarray:
+    """A point as 3 finite numbers (m, world frame), or a ``ValueError`` naming ``name``."""
+    v = np.asarray(v, dtype=float)
+    if v.shape != (3,) or not np.isfinite(v).all():
+        raise ValueError(f"{name} must be 3 finite numbers (m, world frame), got {v}")
+    return v

@@ -30,7 +30,6 @@ the one before; it is held to bounds against the v2 step, not to its bits.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,12 +41,14 @@ from tactile_gym.sim.camera import Camera, frame_box
 from tactile_gym.sim.config import ObjectConfig, SkinConfig
 from tactile_gym.sim.objects import HingedObject
 from tactile_gym.sim.primitives import Plane
-from tactile_gym.sim.skin import Contact, Selection, SoftSkin
+from tactile_gym.sim.skin import SoftSkin
+from tactile_gym.sim.skin_contact import Contact, Selection
 from tactile_gym.sim.world import SUBSTEPS, TIME_STEP, World
 from tactile_gym.spatial import (
+    checked_point,
+    checked_rotation,
     matrix_to_quaternion,
     matrix_to_rotvec,
-    quaternion_to_matrix,
     rotvec_to_matrix,
 )
 from tactile_gym.validation import check_choice
@@ -97,41 +98,6 @@ class StepInfo:
     n_active_nodes: int
     max_force: float
     skin_substeps: int
-
-
-def _rotation(value, name: str) -> np.ndarray:
-    """A (3, 3) rotation matrix, sensor to world, from a matrix or a quaternion (x, y, z, w)."""
-    r = np.asarray(value, dtype=float)
-    if r.shape == (3, 3):
-        # Scalar checks: this runs every control step, and NumPy's per-call cost would be
-        # most of it. NaN and inf fail the comparisons.
-        (a, b, c), (d, e, f), (g, h, i) = r.tolist()
-        gram = (
-            a * a + d * d + g * g - 1.0,
-            b * b + e * e + h * h - 1.0,
-            c * c + f * f + i * i - 1.0,
-            a * b + d * e + g * h,
-            a * c + d * f + g * i,
-            b * c + e * f + h * i,
-        )
-        det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-        if not (all(abs(x) <= 1e-6 for x in gram) and det > 0.0):
-            raise ValueError(f"{name} must be a rotation matrix (orthonormal, det +1), got {r}")
-        return r
-    length = float(np.linalg.norm(r)) if r.shape == (4,) else 0.0
-    if not (math.isfinite(length) and length >= 1e-9):
-        raise ValueError(
-            f"{name} must be a (3, 3) rotation matrix or a finite non-zero quaternion "
-            f"(x, y, z, w), got {r}"
-        )
-    return quaternion_to_matrix(r / length)
-
-
-def _point(v, name: str) -> np.ndarray:
-    v = np.asarray(v, dtype=float)
-    if v.shape != (3,) or not np.isfinite(v).all():
-        raise ValueError(f"{name} must be 3 finite numbers (m, world frame), got {v}")
-    return v
 
 
 class ProbeScene:
@@ -263,8 +229,8 @@ class ProbeScene:
                 as when the hand moves the object mid-trial).
         """
         self._check_open()
-        pos = _point(fingertip_position, "fingertip_position")
-        rot = _rotation(fingertip_orientation, "fingertip_orientation")
+        pos = checked_point(fingertip_position, "fingertip_position")
+        rot = checked_rotation(fingertip_orientation, "fingertip_orientation")
         if object_config is not None and object_config != self._object_config:
             self._object.remove()
             self._object = HingedObject(self._world, object_config, float(joint_angle))
@@ -299,8 +265,8 @@ class ProbeScene:
             StepInfo for the substeps.
         """
         self._check_open()
-        target = _point(target_position, "target_position")
-        r_target = _rotation(target_orientation, "target_orientation")
+        target = checked_point(target_position, "target_position")
+        r_target = checked_rotation(target_orientation, "target_orientation")
         n = self._world.substeps
         dt = self._world.time_step
         horizon = n * dt
