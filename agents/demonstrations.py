@@ -1,8 +1,9 @@
 """Demonstrations: the scripted policy's episodes recorded, written and read back
 (``docs/design.md``, Learning); ``python -m agents.demos`` is their command.
 
-:func:`record_demos` runs :func:`agents.scripted.scripted_policy` (on the 6-D ids, the
-scripted skill executor) on episodes seeded ``DEMO_SEED + k`` (``agents.seeds``);
+:func:`record_demos` runs the scripted baseline (:func:`agents.scripted.scripted_policy`, on
+the 6-D ids the scripted skill executor; on the joint ids
+:func:`agents.joint_scripted.joint_policy`) on episodes seeded ``DEMO_SEED + k`` (``agents.seeds``);
 :func:`save_demos` writes them as plain NumPy (``.npz``), one row per env step
 (:data:`STEP_FIELDS`) or per episode (:data:`EPISODE_FIELDS`), and :func:`save_minari` as a
 Minari dataset (Farama's format for offline RL and imitation datasets, in Minari's dataset
@@ -119,7 +120,8 @@ def record_demos(
     env_kwargs: dict[str, Any] | None = None,
     progress: Callable[[int], None] | None = None,
 ) -> Demos:
-    """The scripted policy's episodes seeded ``first_seed + k``.
+    """The scripted policy's episodes seeded ``first_seed + k`` (the joint ids':
+    ``agents.joint_scripted.joint_policy``, as ``agents.policies.make_policy`` picks).
 
     Args:
         env_id: the id.
@@ -131,13 +133,13 @@ def record_demos(
     Raises:
         ValueError: an unknown id or fewer than one episode.
     """
-    from .scripted import scripted_policy
+    from .policies import make_policy
 
     check_env_id("env_id", env_id)
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     env = gym.make(env_id, **(env_kwargs or {}))
-    policy = scripted_policy(env)
+    policy = make_policy("scripted", env)
     steps: dict[str, list] = {key: [] for key in ("obs", *STEP_FIELDS)}
     seeds, errors, successes, finals = [], [], [], []
     try:

@@ -16,6 +16,7 @@ from agents.demonstrations import (
     save_demos,
     save_minari,
 )
+from agents.joint_scripted import joint_policy
 
 ENV_ID = "tactile_gym/HingeProbePrimitive-v2"
 SHORT = {"max_primitives": 6}
@@ -90,6 +91,23 @@ def test_flat_observations_and_the_command_line(tmp_path, capsys):
     demos = load_demos(path)
     assert isinstance(demos.obs, np.ndarray) and demos.obs.shape[0] == len(demos) <= 3
     assert list(demos.seeds) == [7] and "seeds 7..7" in capsys.readouterr().out
+
+
+def test_joint_ids_record_the_joint_baseline():
+    """A joint id's demonstrations are agents.joint_scripted.joint_policy's actions (the
+    hinge baseline refuses those ids), so the warm start clones the baseline it is compared
+    with."""
+    env_id = "tactile_gym/JointProbePrimitive-v1"
+    demos = record_demos(env_id, 1, first_seed=5, env_kwargs=SHORT)
+    env = gym.make(env_id, **SHORT)
+    policy = joint_policy(env)
+    obs, _ = env.reset(seed=5)
+    policy.reset()
+    for action in demos.acts:
+        expected = policy.get_action(obs)
+        np.testing.assert_array_equal(action, expected)
+        obs, *_ = env.step(expected)
+    env.close()
 
 
 def test_bad_input_is_refused(tmp_path):
