@@ -42,6 +42,12 @@ METRICS = (
     ("success_rate", "success rate (%)", 100.0, ".0f"),
     ("steps_to_5mm_mean", "steps to 5 mm", 1.0, ".0f"),
 )
+#: The joint ids' metrics (``agents.episodes.joint_figures``), shown for the envs that have them.
+JOINT_METRICS = (
+    ("type_accuracy", "type accuracy (%)", 100.0, ".1f"),
+    ("revolute_position_mean_mm", "revolute axis error (mm)", 1.0, ".2f"),
+    ("prismatic_angle_mean_deg", "prismatic direction error (deg)", 1.0, ".2f"),
+)
 
 
 @dataclass(frozen=True)
@@ -95,7 +101,7 @@ def aggregate(runs: list[RunResult]) -> dict[str, dict[str, dict]]:
     for algos in table.values():
         for row in algos.values():
             summaries = row.pop("runs")
-            for key, _, scale, _ in METRICS:
+            for key, _, scale, _ in (*METRICS, *JOINT_METRICS):
                 row[key] = describe(
                     [None if s.get(key) is None else scale * s[key] for s in summaries]
                 )
@@ -124,11 +130,13 @@ def markdown(table: dict[str, dict[str, dict]]) -> str:
     """One markdown table per env: mean +- std [95 % CI] of each metric, by algo."""
     blocks = []
     for env_id, algos in table.items():
-        header = "| algo | seeds | " + " | ".join(title for _, title, _, _ in METRICS) + " |"
-        lines = [f"**{env_id}**", "", header, "|---|---|" + "---|" * len(METRICS)]
+        joint = any(row["type_accuracy"]["n"] for row in algos.values())
+        metrics = (*METRICS, *JOINT_METRICS) if joint else METRICS
+        header = "| algo | seeds | " + " | ".join(title for _, title, _, _ in metrics) + " |"
+        lines = [f"**{env_id}**", "", header, "|---|---|" + "---|" * len(metrics)]
         for algo, row in algos.items():
             cells = []
-            for key, _, _, spec in METRICS:
+            for key, _, _, spec in metrics:
                 cells.append(_cell(row[key], spec, len(row["seeds"])))
             lines.append(f"| {algo} | {len(row['seeds'])} | " + " | ".join(cells) + " |")
         blocks.append("\n".join(lines))

@@ -14,6 +14,8 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+from tactile_gym.estimation import JOINT_TYPES
+
 from .cli import make_env
 from .policies import BUILTIN_POLICIES, PolicySpec, make_policy
 from .resources import torch_threads
@@ -22,6 +24,7 @@ __all__ = [
     "NO_ESTIMATE_ERROR",
     "REACH_THRESHOLD",
     "EpisodeRecord",
+    "joint_figures",
     "record_video",
     "run_episode",
     "run_episodes",
@@ -43,6 +46,10 @@ class EpisodeRecord:
     n_measurements: int
     terminated: bool
     episode_return: float = 0.0
+    #: The joint ids' true type (its index in ``tactile_gym.estimation.JOINT_TYPES``) and
+    #: whether the final estimate has it strictly most probable; ``None`` on the hinge ids.
+    joint_type: int | None = None
+    type_correct: bool | None = None
 
 
 def run_episode(env: gym.Env, policy, seed: int) -> EpisodeRecord:
@@ -68,6 +75,8 @@ def run_episode(env: gym.Env, policy, seed: int) -> EpisodeRecord:
         n_measurements=int(info["n_measurements"]),
         terminated=bool(terminated),
         episode_return=episode_return,
+        joint_type=int(info["joint_type"]) if "joint_type" in info else None,
+        type_correct=bool(info["type_correct"]) if "type_correct" in info else None,
     )
 
 
@@ -104,7 +113,8 @@ def _finite(error: float) -> float:
 
 
 def summarize(records: list[EpisodeRecord]) -> dict[str, float]:
-    """Table figures over episodes: errors in mm and degrees (NaN where undefined)."""
+    """Table figures over episodes: errors in mm and degrees (NaN where undefined); on the
+    joint ids also the type accuracy and each type's parameter error (:func:`joint_figures`)."""
     final_pos = np.array([r.position_error[-1] for r in records]) * 1e3
     final_ang = np.degrees([r.angle_error[-1] for r in records])
     reach = [
@@ -125,6 +135,30 @@ def summarize(records: list[EpisodeRecord]) -> dict[str, float]:
         "measurements_mean": float(np.mean([r.n_measurements for r in records])),
         "failure_rate": float(np.mean([r.terminated for r in records])),
         "return_mean": float(np.mean([r.episode_return for r in records])),
+        **joint_figures(records),
+    }
+
+
+def joint_figures(records: list[EpisodeRecord]) -> dict[str, float]:
+    """The joint ids' figures (none on the hinge ids): the share of episodes ending with the
+    true type most probable, and the mean final parameter error of each type's episodes, the
+    axis position (mm) of the revolute ones and the direction (deg) of the prismatic ones
+    (NaN without such episodes). A rigid object has no parameter."""
+    if any(r.type_correct is None for r in records):
+        return {}
+    revolute, prismatic = (JOINT_TYPES.index(t) for t in ("revolute", "prismatic"))
+
+    def mean_final(errors: list[float]) -> float:
+        return float(np.mean(errors)) if errors else float("nan")
+
+    return {
+        "type_accuracy": float(np.mean([r.type_correct for r in records])),
+        "revolute_position_mean_mm": mean_final(
+            [r.position_error[-1] * 1e3 for r in records if r.joint_type == revolute]
+        ),
+        "prismatic_angle_mean_deg": mean_final(
+            [np.degrees(r.angle_error[-1]) for r in records if r.joint_type == prismatic]
+        ),
     }
 
 

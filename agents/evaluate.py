@@ -119,7 +119,23 @@ def markdown_table(summaries: dict[str, dict[str, float]]) -> str:
         f"{s['measurements_mean']:.1f} | {s['failure_rate']:.0%} |"
         for name, s in summaries.items()
     ]
-    return "\n".join([header, *rows])
+    return "\n".join([header, *rows, *_joint_table(summaries)])
+
+
+def _joint_table(summaries: dict[str, dict[str, float]]) -> list[str]:
+    """The joint ids' figures (``agents.episodes.joint_figures``) as a second table."""
+    if any("type_accuracy" not in s for s in summaries.values()):
+        return []
+    rows = [
+        f"| {name} | {s['type_accuracy']:.1%} | {_fmt(s['revolute_position_mean_mm'], '.2f')} | "
+        f"{_fmt(s['prismatic_angle_mean_deg'], '.2f')} |"
+        for name, s in summaries.items()
+    ]
+    header = (
+        "| policy | type accuracy | revolute: final axis position error mean (mm) |"
+        " prismatic: final direction error mean (deg) |\n|---|---|---|---|"
+    )
+    return ["", header, *rows]
 
 
 def evaluate(

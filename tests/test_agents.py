@@ -422,6 +422,42 @@ def test_the_commands_take_the_joint_ids(tmp_path):
     )  # fmt: skip
     assert len(summaries) == 3
     assert all(summary["episodes"] == 1 for summary in summaries.values())
+    assert all(0.0 <= summary["type_accuracy"] <= 1.0 for summary in summaries.values())
+
+
+def _record(joint_type, correct, position, angle):
+    return episodes.EpisodeRecord(
+        seed=0,
+        position_error=[0.1, position],
+        angle_error=[1.0, angle],
+        success=correct,
+        n_measurements=2,
+        terminated=False,
+        joint_type=joint_type,
+        type_correct=correct,
+    )
+
+
+def test_joint_figures_on_hand_made_episodes():
+    """Type accuracy over every episode; each type's mean final error over its own episodes
+    (revolute position in mm, prismatic direction in degrees); none on the hinge ids."""
+    records = [
+        _record(1, True, 0.002, 0.5),  # revolute
+        _record(1, False, 0.004, 0.5),
+        _record(2, True, 0.05, math.radians(1.0)),  # prismatic
+        _record(2, True, 0.05, math.radians(3.0)),
+        _record(0, False, 0.09, 0.9),  # rigid: no parameter
+    ]
+    figures = episodes.joint_figures(records)
+    assert figures["type_accuracy"] == pytest.approx(3 / 5)
+    assert figures["revolute_position_mean_mm"] == pytest.approx(3.0)
+    assert figures["prismatic_angle_mean_deg"] == pytest.approx(2.0)
+    assert math.isnan(episodes.joint_figures(records[4:])["revolute_position_mean_mm"])
+    hinge = [episodes.EpisodeRecord(0, [0.1, 0.002], [1.0, 0.1], True, 3, False)]
+    assert episodes.joint_figures(hinge) == {}
+    assert "type_accuracy" not in episodes.summarize(hinge)
+    table = evaluate.markdown_table({"a": episodes.summarize(records)})
+    assert "| a | 60.0% | 3.00 | 2.00 |" in table
 
 
 def test_an_interrupted_run_resumes_from_its_latest_checkpoint(tmp_path, capsys):

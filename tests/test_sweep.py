@@ -23,7 +23,9 @@ def test_describe_uses_sample_std_and_skips_missing_values():
     assert 1.0 <= d["ci_low"] < 3.0 < d["ci_high"] <= 6.0
 
 
-def _fake_run(root, algo, seed, position_mm, success, steps_to_5mm, env_id=ENV_ID, spec=None):
+def _fake_run(
+    root, algo, seed, position_mm, success, steps_to_5mm, env_id=ENV_ID, spec=None, joint=None
+):
     run_dir = root / f"{algo}/{env_id.split('/')[-1]}_s{seed}"
     (run_dir / "evaluation").mkdir(parents=True)
     job = spec or {"env_id": env_id, "algo": algo, "seed": seed}
@@ -33,6 +35,7 @@ def _fake_run(root, algo, seed, position_mm, success, steps_to_5mm, env_id=ENV_I
         "position_mean_mm": position_mm,
         "success_rate": success,
         "steps_to_5mm_mean": steps_to_5mm,
+        **(joint or {}),
     }
     evaluation = {"summaries": {f"{run_dir.name}/final_model": summary}}
     (run_dir / "evaluation" / "evaluation.json").write_text(json.dumps(cli.json_safe(evaluation)))
@@ -41,6 +44,22 @@ def _fake_run(root, algo, seed, position_mm, success, steps_to_5mm, env_id=ENV_I
     results = np.array([[1.0, 3.0], [2.0, 4.0]]) + seed  # two evaluations of two episodes
     np.savez(eval_dir / "evaluations.npz", timesteps=np.array([100, 200]), results=results)
     return run_dir
+
+
+def test_aggregate_shows_the_joint_ids_type_accuracy(tmp_path):
+    env_id = tactile_gym.JOINT_ENV_IDS[2]
+    for seed, accuracy in enumerate((0.9, 1.0)):
+        joint = {
+            "type_accuracy": accuracy,
+            "revolute_position_mean_mm": 2.0 + seed,
+            "prismatic_angle_mean_deg": 0.5,
+        }
+        _fake_run(tmp_path, "ppo", seed, 3.0, 0.8, 10.0, env_id=env_id, joint=joint)
+    table = aggregate.aggregate(aggregate.load_runs(tmp_path))
+    assert table[env_id]["ppo"]["type_accuracy"]["mean"] == pytest.approx(95.0)
+    text = aggregate.markdown(table)
+    assert "| type accuracy (%) | revolute axis error (mm) | prismatic direction" in text
+    assert "| 95.0 +- 7.1 [" in text and "| 2.50 +- 0.71 [" in text
 
 
 def test_aggregate_table_across_seeds(tmp_path):
@@ -75,6 +94,8 @@ def test_aggregate_table_across_seeds(tmp_path):
     np.testing.assert_allclose(mean, [3.0, 4.0])  # seed offsets 0, 1, 2 around 2 and 3
     np.testing.assert_allclose(std, [1.0, 1.0])
 
+    assert "type accuracy" not in text  # the hinge ids have no joint columns
+
     written = aggregate.write_results(tmp_path)
     assert written == text
     assert json.loads((tmp_path / "results.json").read_text())[ENV_ID]["sac"]["seeds"] == [0]
@@ -93,6 +114,9 @@ def test_shipped_sweeps_load():
     assert [job.key for job in smoke] == [f"ppo/{name}_s0", f"ppo/{name}_s1"]
     assert smoke[0].n_timesteps == 256
     assert smoke[0].hyperparams["n_steps"] == 64  # the sweep's override over the YAML
+    for name in preset_names("sweeps"):  # every shipped sweep expands into distinct jobs
+        jobs = sweep.expand(sweep.load_sweep(name))
+        assert jobs and len({job.key for job in jobs}) == len(jobs), name
 
 
 @pytest.mark.parametrize(
