@@ -1,6 +1,7 @@
 """What ``agents.train`` hands stable-baselines3 while it learns (``docs/design.md`` 12):
 the periodic evaluation on fixed episodes and the checkpoints, each model saved with its
-``VecNormalize`` statistics as JSON (``agents.runs``).
+``VecNormalize`` statistics as JSON (``agents.runs``), and the demonstrations' anchor on
+PPO's fine-tuning (:class:`DemoAnchor`).
 
 SB3's periodic evaluation plays episodes drawn afresh at each evaluation, so the difference
 between two evaluations is mostly the difference between their episodes (the prior's error,
@@ -22,12 +23,15 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from .demonstrations import Demos
 from .policies import deadband
 from .runs import save_statistics, statistics_path
+from .warmstart import WarmStart, clone_actions
 
 __all__ = [
     "ActionDeadband",
     "Checkpoints",
+    "DemoAnchor",
     "FixedSeedVecEnv",
     "TRUTH_INFO",
     "WithoutTruth",
@@ -120,6 +124,52 @@ class WithoutTruth(VecEnvWrapper):
             for key in TRUTH_INFO:
                 info.pop(key, None)
         return obs, rewards, dones, infos
+
+
+class DemoAnchor(BaseCallback):
+    """After each PPO update, ``recipe.anchor_epochs`` passes of behaviour cloning over the
+    demonstrations at PPO's current learning rate (``agents.warmstart``, ``anchor_epochs``).
+
+    It runs when a rollout starts, the first step after an update; the demonstrations'
+    observations are normalised with the statistics of that moment, as PPO's next rollout
+    sees its own. The minibatch order comes from ``seed``, so a run stays reproducible. The
+    last pass's loss goes to the logger as ``train/anchor_loss``.
+    """
+
+    def __init__(self, demos: Demos, recipe: WarmStart, seed: int) -> None:
+        import torch
+
+        super().__init__()
+        self.demos, self.recipe = demos, recipe
+        self.generator = torch.Generator().manual_seed(seed)
+        self.updates = 0
+        self.losses: list[float] = []
+
+    def _on_rollout_start(self) -> None:
+        import torch
+
+        updates = self.model._n_updates
+        if updates == self.updates:  # no update since the last pass (or none yet)
+            return
+        self.updates = updates
+        policy = self.model.policy
+        vec_normalize = self.model.get_vec_normalize_env()
+        obs = self.demos.obs
+        if vec_normalize is not None:
+            obs = vec_normalize.normalize_obs(obs)
+        tensors, _ = policy.obs_to_tensor(obs)
+        actions = torch.as_tensor(self.demos.acts, device=policy.device)
+        learning_rate = policy.optimizer.param_groups[0]["lr"]
+        recipe = self.recipe
+        losses = clone_actions(
+            policy, tensors, actions, recipe.anchor_epochs, recipe.batch_size, learning_rate,
+            recipe.action_std, self.generator,
+        )  # fmt: skip
+        self.losses += losses
+        self.logger.record("train/anchor_loss", losses[-1])
+
+    def _on_step(self) -> bool:
+        return True
 
 
 def fixed_seed_evaluation(

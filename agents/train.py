@@ -249,11 +249,21 @@ class Trainer:
 
     def warm_start(self, model) -> None:
         """A new model starts from the recipe's demonstrations (``agents.warmstart``); a
-        resumed run, or a recipe without demonstrations, starts as it is."""
+        resumed run, or a recipe without demonstrations, starts as it is. A recipe with
+        ``anchor_epochs`` adds the demonstrations' anchor to the callbacks
+        (``agents.callbacks.DemoAnchor``)."""
         if self.recipe.enabled and self.checkpoint is None:
             run_recipe(
                 model, self.recipe, self.args.env_id, self.env_kwargs, self.args.seed, self.run_dir
             )
+        if self.recipe.enabled and self.recipe.anchor_epochs:
+            from .callbacks import DemoAnchor
+            from .demonstrations import load_demos
+
+            # The run's own recording (a resumed run's too), or the recipe's file.
+            recorded = isinstance(self.recipe.demos, int)
+            demos = load_demos(self.run_dir / "demos.npz" if recorded else self.recipe.demos)
+            self.callbacks.append(DemoAnchor(demos, self.recipe, self.args.seed))
 
     def learn(self, model) -> None:
         """Learn up to the run's env steps (those of a resumed run included)."""

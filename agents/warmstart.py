@@ -29,6 +29,12 @@ quantile (or Q-value) fitted to the demonstrations' discounted returns at the de
 actions, then copied into the target critics; and the demonstrated transitions are written
 into its replay buffer, so the first updates learn from them.
 
+With ``anchor_epochs`` the demonstrations also hold PPO's fine-tuning near the clone: after
+each PPO update, that many passes of the same fixed-deviation likelihood over them, at PPO's
+own learning rate (:class:`agents.callbacks.DemoAnchor`). It is the demonstration term of
+DAPG (Rajeswaran et al., 2018) taken as separate steps rather than as a term of PPO's loss,
+so SB3's ``train`` stays as it is; ``docs/design.md`` 12.4 says why and what it measured.
+
 The recipe is a short loop of our own over the SB3 policy rather than the ``imitation``
 library's BC: imitation's release pins Gymnasium 0.29 and Stable-Baselines3 2.2.
 
@@ -56,6 +62,7 @@ __all__ = [
     "WarmStart",
     "action_nll",
     "behaviour_clone",
+    "clone_actions",
     "fit_values",
     "load_recipe",
     "normalise_from_demos",
@@ -81,6 +88,9 @@ class WarmStart:
             for the whole run instead of updating them from its rollouts: a clone whose
             actions must stay within a deadband (the 6-D ids, ``docs/design.md`` 12.1) acts
             otherwise once its inputs' scaling drifts.
+        anchor_epochs: passes over the demonstrations after each PPO update that pull the
+            actor's mean back towards the demonstrated actions (module docstring); 0: none.
+            Only a feed-forward PPO policy takes it.
     """
 
     demos: int | str = 0
@@ -90,6 +100,7 @@ class WarmStart:
     learning_rate: float = 1e-3
     action_std: float = 0.2
     freeze_statistics: bool = False
+    anchor_epochs: int = 0
 
     def __post_init__(self) -> None:
         if isinstance(self.demos, bool) or not isinstance(self.demos, (int, str)):
@@ -98,7 +109,7 @@ class WarmStart:
             )
         if isinstance(self.demos, int) and self.demos < 0:
             raise ValueError(f"warm_start.demos must be >= 0 episodes, got {self.demos}")
-        for name in ("bc_epochs", "value_epochs", "batch_size"):
+        for name in ("bc_epochs", "value_epochs", "batch_size", "anchor_epochs"):
             value = getattr(self, name)
             low = 1 if name == "batch_size" else 0
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
@@ -181,6 +192,19 @@ def behaviour_clone(
     Returns:
         The mean negative log-likelihood of each epoch.
     """
+    losses = clone_actions(
+        policy, obs, actions, epochs, batch_size, learning_rate, action_std, generator
+    )
+    policy.log_std.data.fill_(math.log(action_std / _noise_scale(policy, obs)))
+    return losses
+
+
+def clone_actions(
+    policy, obs, actions, epochs: int, batch_size: int, learning_rate: float, action_std: float,
+    generator,
+) -> list[float]:  # fmt: skip
+    """:func:`behaviour_clone`'s fit of the actor's mean alone, the policy's ``log_std`` left
+    as it is (``action_std`` only scales the loss); returns each epoch's mean loss."""
     import torch
 
     critic = ("value_net.", "mlp_extractor.value_net.")
@@ -195,11 +219,9 @@ def behaviour_clone(
         normal = torch.distributions.Normal(mean, action_std)
         return -normal.log_prob(actions[index]).sum(dim=-1).mean()
 
-    losses = _minimise(
+    return _minimise(
         policy, params, nll, len(actions), epochs, batch_size, learning_rate, generator
     )
-    policy.log_std.data.fill_(math.log(action_std / _noise_scale(policy, obs)))
-    return losses
 
 
 def _noise_scale(policy, obs) -> float:
@@ -274,6 +296,11 @@ def warm_start(model, demos: Demos, recipe: WarmStart, seed: int = 0) -> dict[st
     import torch
 
     kind = _model_kind(model)
+    if recipe.anchor_epochs and kind != "on_policy":
+        raise ValueError(
+            f"warm_start.anchor_epochs needs a feed-forward PPO policy, got {kind} "
+            f"{type(model).__name__} with anchor_epochs {recipe.anchor_epochs}"
+        )
     if demos.acts.shape[1:] != model.action_space.shape:
         raise ValueError(
             f"the demonstrations' actions have shape {demos.acts.shape[1:]}, "

@@ -15,12 +15,13 @@ import tactile_gym  # noqa: F401 - registers the envs
 from agents import cli, runs, selection, sweep, train
 from agents.demonstrations import record_demos
 from agents.policies import ModelPolicy, deadband
-from agents.warmstart import Sequences, WarmStart, action_nll, warm_start
+from agents.warmstart import Sequences, WarmStart, action_nll, clone_actions, warm_start
 
 pytest.importorskip("sb3_contrib")
 ENV_ID = "tactile_gym/HingeProbePrimitive-v2"
 SHORT = {"max_primitives": 6}
 TINY = {
+    "ppo": {"n_steps": 16, "batch_size": 16, "n_epochs": 1, "policy_kwargs": {"net_arch": [16]}},
     "recurrent_ppo": {
         "n_steps": 16, "batch_size": 16, "n_epochs": 1,
         "policy_kwargs": {"net_arch": [16], "lstm_hidden_size": 8},
@@ -123,6 +124,67 @@ def test_a_tqc_warm_start_clones_fits_and_fills_the_buffer(demos):
     assert action_nll(model, demos, 0.2) < before
     assert obs.obs_rms["wrench"].count > len(demos)  # the statistics saw the demonstrations
     assert not obs.training  # and stay as they are (freeze_statistics)
+
+
+def test_the_demonstrations_anchor_pulls_a_drifted_actor_back_after_each_update(demos):
+    """DemoAnchor: after an update, ``anchor_epochs`` passes at PPO's learning rate lower the
+    demonstrations' loss of an actor that drifted from its clone; without an update since its
+    last pass it does nothing; the log std stays PPO's."""
+    import torch
+    from stable_baselines3.common.logger import Logger
+
+    from agents.callbacks import DemoAnchor
+
+    model = _model("ppo")
+    recipe = WarmStart(demos=1, bc_epochs=30, value_epochs=1, anchor_epochs=3)
+    warm_start(model, demos, recipe)
+    cloned = action_nll(model, demos, 0.2)
+    policy = model.policy
+    with torch.no_grad():  # a fine-tuning that drifted: the actor's output layer shaken
+        policy.action_net.weight.add_(0.5 * torch.randn_like(policy.action_net.weight))
+        policy.log_std.fill_(-1.0)
+    drifted = action_nll(model, demos, 0.2)
+    assert drifted > cloned + 1.0
+    model.set_logger(Logger(folder=None, output_formats=[]))  # what learn() sets up
+    anchor = DemoAnchor(demos, recipe, seed=0)
+    anchor.init_callback(model)
+    anchor.on_rollout_start()  # no update yet: nothing to pull back
+    assert anchor.losses == [] and action_nll(model, demos, 0.2) == drifted
+    model._n_updates += 1  # as PPO's train() counts one
+    for group in policy.optimizer.param_groups:
+        group["lr"] = 1e-2
+    anchor.on_rollout_start()
+    assert len(anchor.losses) == 3
+    assert action_nll(model, demos, 0.2) < drifted - 1.0
+    assert torch.all(policy.log_std == -1.0)
+    anchor.on_rollout_start()  # the same update: no second pass
+    assert len(anchor.losses) == 3
+
+
+def test_the_anchor_is_refused_where_it_has_no_meaning(demos):
+    with pytest.raises(ValueError, match="anchor_epochs needs a feed-forward PPO"):
+        warm_start(_model("tqc"), demos, WarmStart(demos=1, anchor_epochs=1))
+    with pytest.raises(ValueError, match="anchor_epochs must be an integer >= 0"):
+        WarmStart(demos=1, anchor_epochs=-1)
+
+
+def test_a_run_with_the_anchor_pulls_after_its_update(tmp_path, monkeypatch):
+    """agents.train wires the anchor from the run's recorded demonstrations: 32 steps in
+    rollouts of 16 make one update, after which the anchor makes its one pass."""
+    from agents import callbacks
+
+    passes = []
+
+    def counted(*args, **kwargs):
+        passes.append(args[3])  # epochs
+        return clone_actions(*args, **kwargs)
+
+    monkeypatch.setattr(callbacks, "clone_actions", counted)
+    recipe = {"demos": 2, "bc_epochs": 2, "value_epochs": 2, "batch_size": 8, "anchor_epochs": 1}
+    run_dir = _train(tmp_path, "ppo", warm_start=recipe)
+    assert passes == [1]
+    assert yaml.safe_load((run_dir / "config.yml").read_text())["warm_start"]["anchor_epochs"] == 1
+    assert (run_dir / "demos.npz").exists() and (run_dir / "final_model.zip").exists()
 
 
 def _train(tmp_path, algo: str, seed: int = 0, **kwargs):
