@@ -17,7 +17,9 @@ import shutil
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
+import yaml
 from test_cli import _usage_error
 
 from agents import cli, evaluate, runs, selection
@@ -264,3 +266,29 @@ def test_a_zip_that_is_not_a_model(capsys, folder):
     with zipfile.ZipFile(folder / "final_model.zip", "w") as archive:
         archive.writestr("notes.txt", "not a model")
     refused_everywhere(capsys, folder, "not a stable-baselines3 model", "notes.txt")
+
+
+@pytest.mark.parametrize("folder", sorted(p.name for p in (ROOT / "models").iterdir()))
+def test_every_committed_model_is_complete_and_plays_without_unpickling(folder):
+    """Each committed folder holds one model, its statistics as JSON and its run's
+    ``config.yml`` (the selected ones their ``selection.json``, naming this folder), and acts
+    on its own id through the loader that unpickles nothing (the payload tests above)."""
+    import gymnasium as gym
+
+    path = ROOT / "models" / folder
+    (model,) = path.glob("*.zip")
+    assert runs.statistics_path(model).is_file()
+    config = yaml.safe_load((path / "config.yml").read_text())
+    if (path / "selection.json").exists():
+        record = json.loads((path / "selection.json").read_text())
+        assert record["copied_to"] == f"models/{folder}"
+        assert record["env_id"] == config["env_id"]
+        assert Path(record["selected"]).name == model.name
+    env = gym.make(config["env_id"], **(config["arguments"]["env_kwargs"] or {}))
+    obs, _ = env.reset(seed=SELECTION_SEED)
+    policy = ModelPolicy(model, env)  # trust_pickle off: the loader's safe path
+    policy.reset()
+    for _ in range(3):
+        obs, *_ = env.step(policy.get_action(obs))
+    assert env.action_space.contains(np.asarray(policy.get_action(obs), dtype=np.float32))
+    env.close()
