@@ -145,9 +145,12 @@ class DemoAnchor(BaseCallback):
         self.updates = 0
         self.losses: list[float] = []
 
-    def _on_rollout_start(self) -> None:
+    def _init_callback(self) -> None:
         import torch
 
+        self.actions = torch.as_tensor(self.demos.acts, device=self.model.policy.device)
+
+    def _on_rollout_start(self) -> None:
         updates = self.model._n_updates
         if updates == self.updates:  # no update since the last pass (or none yet)
             return
@@ -158,11 +161,10 @@ class DemoAnchor(BaseCallback):
         if vec_normalize is not None:
             obs = vec_normalize.normalize_obs(obs)
         tensors, _ = policy.obs_to_tensor(obs)
-        actions = torch.as_tensor(self.demos.acts, device=policy.device)
         learning_rate = policy.optimizer.param_groups[0]["lr"]
         recipe = self.recipe
         losses = clone_actions(
-            policy, tensors, actions, recipe.anchor_epochs, recipe.batch_size, learning_rate,
+            policy, tensors, self.actions, recipe.anchor_epochs, recipe.batch_size, learning_rate,
             recipe.action_std, self.generator,
         )  # fmt: skip
         self.losses += losses
